@@ -1,0 +1,300 @@
+//! The scheduler: computes keys, loads what the cache has, runs what it lacks.
+//!
+//! Only the values a target needs are touched: a cached output whose inputs are also cached
+//! loads one entry and runs nothing. Stages that must run are grouped in waves by depth and
+//! each wave runs in parallel on rayon. A stage's result depends only on its inputs, never
+//! on which thread ran it or in what order, so outputs do not depend on the thread count.
+
+use std::collections::{BTreeSet, HashMap, HashSet};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::cache::{Cache, Lookup};
+use super::key::{Key, KeyBuilder};
+use super::progress::Progress;
+use super::stage::{Artifact, Graph, NodeId, RunCx, StageError};
+use super::world::World;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Not needed: everything downstream of it was cached.
+    Fresh,
+    /// Loaded from the on-disk cache.
+    Hit,
+    /// Taken from the in-memory cache (watch mode).
+    Memory,
+    /// Ran.
+    Ran,
+    /// Ran because its cache entry failed verification.
+    Rebuilt,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct StageRecord {
+    pub node: NodeId,
+    pub label: String,
+    pub kind: &'static str,
+    #[serde(serialize_with = "key_hex")]
+    pub key: Key,
+    pub status: Status,
+    pub millis: f64,
+}
+
+fn key_hex<S: serde::Serializer>(k: &Key, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&k.hex())
+}
+
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Report {
+    pub stages: Vec<StageRecord>,
+}
+
+impl Report {
+    pub fn ran(&self) -> impl Iterator<Item = &StageRecord> {
+        self.stages.iter().filter(|s| matches!(s.status, Status::Ran | Status::Rebuilt))
+    }
+}
+
+#[derive(Debug)]
+pub struct Failure {
+    pub node: NodeId,
+    pub error: StageError,
+}
+
+/// Artifacts kept between builds in watch mode, so an unchanged stage is not even decoded.
+#[derive(Default)]
+pub struct MemoryCache {
+    map: Mutex<HashMap<Key, Artifact>>,
+}
+
+impl MemoryCache {
+    fn get(&self, k: &Key) -> Option<Artifact> {
+        self.map.lock().expect("memory cache lock").get(k).cloned()
+    }
+
+    fn put(&self, k: Key, a: Artifact) {
+        self.map.lock().expect("memory cache lock").insert(k, a);
+    }
+
+    /// Drops everything not used by the last build.
+    pub fn retain(&self, keep: &HashSet<Key>) {
+        self.map.lock().expect("memory cache lock").retain(|k, _| keep.contains(k));
+    }
+}
+
+pub struct Executor<'a> {
+    pub world: &'a World,
+    pub cache: &'a Cache,
+    pub memory: Option<&'a MemoryCache>,
+    pub progress: bool,
+}
+
+pub struct Outcome {
+    pub values: HashMap<NodeId, Artifact>,
+    pub keys: HashMap<NodeId, Key>,
+    pub report: Report,
+}
+
+impl Executor<'_> {
+    /// Computes the key of every node in `nodes` (ascending, so inputs come first).
+    pub fn keys(&self, graph: &Graph, nodes: &[NodeId]) -> Result<HashMap<NodeId, Key>, Failure> {
+        let mut keys: HashMap<NodeId, Key> = HashMap::with_capacity(nodes.len());
+        for &n in nodes {
+            let node = &graph.nodes[n];
+            let mut kb = KeyBuilder::new(node.stage.kind(), node.stage.version());
+            kb.part(node.stage.params().as_bytes());
+            for i in &node.inputs {
+                kb.part(&keys[i].0);
+            }
+            for (fi, f) in node.files.iter().enumerate() {
+                let h = self.world.hash(f).map_err(|e| Failure {
+                    node: n,
+                    error: StageError::new(format!("cannot read `{}`: {e}", f.display())).in_file(fi),
+                })?;
+                kb.part(&h);
+            }
+            keys.insert(n, kb.finish());
+        }
+        Ok(keys)
+    }
+
+    pub fn run(&self, graph: &Graph, targets: &[NodeId]) -> Result<Outcome, (Failure, Report)> {
+        let closure = graph.closure(targets);
+        let keys = self.keys(graph, &closure).map_err(|f| (f, Report::default()))?;
+        let mut status: HashMap<NodeId, (Status, f64)> = HashMap::new();
+        let mut values: HashMap<NodeId, Artifact> = HashMap::new();
+        let mut corrupt: HashSet<NodeId> = HashSet::new();
+
+        // Decide what to load and what to run; a load that fails verification turns into
+        // a run, which may need more inputs, so iterate until every load succeeds.
+        let to_run = loop {
+            let (load, run) = self.plan(graph, targets, &keys, &values, &corrupt);
+            let loaded: Vec<(NodeId, Option<(Artifact, Status)>, f64)> = load
+                .par_iter()
+                .map(|&n| {
+                    let t = Instant::now();
+                    let r = self.load(graph, n, &keys[&n]);
+                    (n, r, ms(t))
+                })
+                .collect();
+            let mut again = false;
+            for (n, r, t) in loaded {
+                match r {
+                    Some((a, s)) => {
+                        values.insert(n, a);
+                        status.insert(n, (s, t));
+                    }
+                    None => {
+                        corrupt.insert(n);
+                        again = true;
+                    }
+                }
+            }
+            if !again {
+                break run;
+            }
+        };
+
+        // Waves by depth within the set to run.
+        let mut depth: HashMap<NodeId, usize> = HashMap::new();
+        for &n in &to_run {
+            let d = graph.nodes[n].inputs.iter().filter_map(|i| depth.get(i)).map(|d| d + 1).max().unwrap_or(0);
+            depth.insert(n, d);
+        }
+        let max_depth = depth.values().copied().max();
+        let mut failure: Option<Failure> = None;
+        if let Some(max_depth) = max_depth {
+            for level in 0..=max_depth {
+                let wave: Vec<NodeId> = to_run.iter().copied().filter(|n| depth[n] == level).collect();
+                let results: Vec<(NodeId, Result<Artifact, StageError>, f64)> = wave
+                    .par_iter()
+                    .map(|&n| {
+                        let t = Instant::now();
+                        let r = self.execute(graph, n, &keys[&n], &values);
+                        (n, r, ms(t))
+                    })
+                    .collect();
+                for (n, r, t) in results {
+                    match r {
+                        Ok(a) => {
+                            values.insert(n, a);
+                            let s = if corrupt.contains(&n) { Status::Rebuilt } else { Status::Ran };
+                            status.insert(n, (s, t));
+                        }
+                        Err(e) => {
+                            if failure.as_ref().is_none_or(|f| n < f.node) {
+                                failure = Some(Failure { node: n, error: e });
+                            }
+                        }
+                    }
+                }
+                if failure.is_some() {
+                    break;
+                }
+            }
+        }
+
+        let report = Report {
+            stages: closure
+                .iter()
+                .filter_map(|&n| {
+                    let node = &graph.nodes[n];
+                    let (s, t) = match status.get(&n) {
+                        Some(st) => *st,
+                        None if failure.is_some() && to_run.contains(&n) => return None,
+                        None => (Status::Fresh, 0.0),
+                    };
+                    Some(StageRecord {
+                        node: n,
+                        label: node.label.clone(),
+                        kind: node.stage.kind(),
+                        key: keys[&n],
+                        status: s,
+                        millis: t,
+                    })
+                })
+                .collect(),
+        };
+        if let Some(f) = failure {
+            return Err((f, report));
+        }
+        if let Some(mem) = self.memory {
+            for (n, v) in &values {
+                mem.put(keys[n], v.clone());
+            }
+        }
+        let values = targets.iter().map(|t| (*t, values[t].clone())).collect();
+        Ok(Outcome { values, keys, report })
+    }
+
+    /// Which nodes to load from a cache and which to run, given what is already in hand.
+    fn plan(
+        &self,
+        graph: &Graph,
+        targets: &[NodeId],
+        keys: &HashMap<NodeId, Key>,
+        have: &HashMap<NodeId, Artifact>,
+        corrupt: &HashSet<NodeId>,
+    ) -> (Vec<NodeId>, BTreeSet<NodeId>) {
+        let mut need: BTreeSet<NodeId> = targets.iter().copied().collect();
+        let mut load = Vec::new();
+        let mut run = BTreeSet::new();
+        // Descending ids visit every consumer before its inputs.
+        while let Some(n) = need.pop_last() {
+            if have.contains_key(&n) {
+                continue;
+            }
+            let k = &keys[&n];
+            let cached = !corrupt.contains(&n)
+                && (self.memory.is_some_and(|m| m.get(k).is_some()) || self.cache.contains(k));
+            if cached {
+                load.push(n);
+            } else {
+                run.insert(n);
+                need.extend(graph.nodes[n].inputs.iter().copied());
+            }
+        }
+        (load, run)
+    }
+
+    fn load(&self, graph: &Graph, n: NodeId, key: &Key) -> Option<(Artifact, Status)> {
+        if let Some(a) = self.memory.and_then(|m| m.get(key)) {
+            return Some((a, Status::Memory));
+        }
+        match self.cache.get(key) {
+            Lookup::Hit(bytes) => graph.nodes[n].stage.decode(&bytes).ok().map(|a| (a, Status::Hit)),
+            Lookup::Miss | Lookup::Corrupt => None,
+        }
+    }
+
+    fn execute(
+        &self,
+        graph: &Graph,
+        n: NodeId,
+        key: &Key,
+        values: &HashMap<NodeId, Artifact>,
+    ) -> Result<Artifact, StageError> {
+        let node = &graph.nodes[n];
+        let progress = Progress::new(&node.label, self.progress);
+        let cx = RunCx {
+            inputs: node.inputs.iter().map(|i| values[i].clone()).collect(),
+            files: &node.files,
+            world: self.world,
+            progress: &progress,
+        };
+        let result = node.stage.run(&cx);
+        progress.finish();
+        let artifact = result?;
+        // A cache that cannot be written costs speed, not correctness: carry on.
+        let _ = self.cache.put(key, &node.stage.encode(&artifact));
+        Ok(artifact)
+    }
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1000.0
+}

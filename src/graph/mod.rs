@@ -1,0 +1,15 @@
+//! Keys, cache and scheduling. Knows nothing of the scene language or the algorithms:
+//! stages are opaque boxes with a kind, a version, parameters, inputs and files.
+pub mod cache;
+pub mod exec;
+pub mod key;
+pub mod progress;
+pub mod stage;
+pub mod watch;
+pub mod world;
+
+pub use cache::{write_atomic, Cache};
+pub use exec::{Executor, Failure, MemoryCache, Outcome, Report, StageRecord, Status};
+pub use key::Key;
+pub use stage::{Artifact, Graph, Node, NodeId, RunCx, Stage, StageError};
+pub use world::World;

@@ -1,0 +1,130 @@
+//! The syntax tree: what the user wrote, with spans, before any meaning is attached.
+//!
+//! Numbers keep their source text so that `tessera fmt` never rewrites `0.50` into `0.5`
+//! behind the user's back; the formatter only changes layout.
+
+use super::source::Span;
+
+#[derive(Clone, Debug)]
+pub struct File {
+    pub items: Vec<Item>,
+}
+
+#[derive(Clone, Debug)]
+pub enum Item {
+    Comment(Comment),
+    Import(Import),
+    Param(Param),
+    Decl(Decl),
+}
+
+#[derive(Clone, Debug)]
+pub struct Comment {
+    pub text: String,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct Import {
+    pub path: String,
+    pub path_span: Span,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct Param {
+    pub name: Ident,
+    pub value: Value,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Ident {
+    pub text: String,
+    pub span: Span,
+}
+
+/// A declaration's name: a bare identifier (`map density`) or a string (`output "a.png"`).
+#[derive(Clone, Debug)]
+pub struct DeclName {
+    pub text: String,
+    pub quoted: bool,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct Decl {
+    pub kind: Ident,
+    pub name: Option<DeclName>,
+    pub block: Block,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct Block {
+    pub entries: Vec<Entry>,
+    pub span: Span,
+}
+
+impl Block {
+    pub fn properties(&self) -> impl Iterator<Item = &Property> {
+        self.entries.iter().filter_map(|e| match e {
+            Entry::Property(p) => Some(p),
+            Entry::Comment(_) => None,
+        })
+    }
+}
+
+#[derive(Clone, Debug)]
+pub enum Entry {
+    Comment(Comment),
+    Property(Property),
+}
+
+#[derive(Clone, Debug)]
+pub struct Property {
+    pub name: Ident,
+    pub value: Value,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct Value {
+    pub kind: ValueKind,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub enum ValueKind {
+    Number { value: f64, text: String, unit: Option<String> },
+    Size { w: f64, w_text: String, h: f64, h_text: String },
+    Bool(bool),
+    Str(String),
+    Vector(Vec<Value>),
+    Ident(String),
+    Call { name: Ident, args: Vec<Arg> },
+    Block(Block),
+}
+
+#[derive(Clone, Debug)]
+pub struct Arg {
+    pub name: Option<Ident>,
+    pub value: Value,
+}
+
+impl ValueKind {
+    /// A short noun for diagnostics: "expected a size, found a string".
+    pub fn describe(&self) -> &'static str {
+        match self {
+            ValueKind::Number { unit: Some(_), .. } => "a number with a unit",
+            ValueKind::Number { .. } => "a number",
+            ValueKind::Size { .. } => "a size",
+            ValueKind::Bool(_) => "a boolean",
+            ValueKind::Str(_) => "a string",
+            ValueKind::Vector(_) => "a vector",
+            ValueKind::Ident(_) => "a name",
+            ValueKind::Call { .. } => "a constructor call",
+            ValueKind::Block(_) => "a block",
+        }
+    }
+}

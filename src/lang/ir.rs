@@ -1,0 +1,220 @@
+//! The typed scene: declarations with every property checked, converted to canonical units
+//! and defaulted. This is what `stages/` plans from.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use serde::Serialize;
+
+use super::source::{FileId, SourceMap, Span};
+
+#[derive(Clone, Debug, Serialize, PartialEq)]
+#[serde(rename_all = "snake_case")]
+pub enum Val {
+    Num(f64),
+    Int(i64),
+    Bool(bool),
+    Size(u32, u32),
+    Numbers(Vec<f64>),
+    Points(Vec<[f64; 2]>),
+    Str(String),
+    /// A resolved file path. Serialised (for cache keys) by file name only: the content
+    /// hash of the file, not where it lives, is what a stage's result depends on.
+    Path(#[serde(serialize_with = "file_name_only")] PathBuf),
+    Enum(String),
+    Ref(String),
+    Refs(Vec<String>),
+    Call(Call),
+    Block(Props),
+}
+
+fn file_name_only<S: serde::Serializer>(p: &PathBuf, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
+}
+
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Call {
+    pub name: String,
+    pub args: Props,
+}
+
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Prop {
+    pub val: Val,
+    /// Where the user wrote it; `None` for a default.
+    #[serde(skip)]
+    pub span: Option<Span>,
+}
+
+/// Checked properties by name, in a stable order.
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct Props(pub BTreeMap<String, Prop>);
+
+impl Props {
+    pub fn get(&self, name: &str) -> Option<&Val> {
+        self.0.get(name).map(|p| &p.val)
+    }
+
+    pub fn span(&self, name: &str) -> Option<Span> {
+        self.0.get(name).and_then(|p| p.span)
+    }
+
+    fn expect(&self, name: &str) -> &Val {
+        self.get(name).unwrap_or_else(|| panic!("schema guarantees property `{name}`"))
+    }
+
+    pub fn num(&self, name: &str) -> f64 {
+        match self.expect(name) {
+            Val::Num(v) => *v,
+            Val::Int(v) => *v as f64,
+            v => panic!("property `{name}` is not a number: {v:?}"),
+        }
+    }
+
+    pub fn opt_num(&self, name: &str) -> Option<f64> {
+        self.get(name).map(|_| self.num(name))
+    }
+
+    pub fn int(&self, name: &str) -> i64 {
+        match self.expect(name) {
+            Val::Int(v) => *v,
+            v => panic!("property `{name}` is not an integer: {v:?}"),
+        }
+    }
+
+    pub fn bool(&self, name: &str) -> bool {
+        match self.expect(name) {
+            Val::Bool(v) => *v,
+            v => panic!("property `{name}` is not a boolean: {v:?}"),
+        }
+    }
+
+    pub fn size(&self, name: &str) -> (u32, u32) {
+        self.opt_size(name).unwrap_or_else(|| panic!("property `{name}` is not a size"))
+    }
+
+    pub fn opt_size(&self, name: &str) -> Option<(u32, u32)> {
+        match self.get(name)? {
+            Val::Size(w, h) => Some((*w, *h)),
+            v => panic!("property `{name}` is not a size: {v:?}"),
+        }
+    }
+
+    pub fn numbers(&self, name: &str) -> &[f64] {
+        self.opt_numbers(name).unwrap_or_else(|| panic!("property `{name}` is not a vector"))
+    }
+
+    pub fn opt_numbers(&self, name: &str) -> Option<&[f64]> {
+        match self.get(name)? {
+            Val::Numbers(v) => Some(v),
+            v => panic!("property `{name}` is not a vector: {v:?}"),
+        }
+    }
+
+    pub fn vec2(&self, name: &str) -> [f64; 2] {
+        let v = self.numbers(name);
+        [v[0], v[1]]
+    }
+
+    pub fn points(&self, name: &str) -> &[[f64; 2]] {
+        match self.expect(name) {
+            Val::Points(v) => v,
+            v => panic!("property `{name}` is not a point list: {v:?}"),
+        }
+    }
+
+    pub fn str(&self, name: &str) -> &str {
+        match self.expect(name) {
+            Val::Str(v) | Val::Enum(v) | Val::Ref(v) => v,
+            v => panic!("property `{name}` is not a string: {v:?}"),
+        }
+    }
+
+    pub fn enumeration(&self, name: &str) -> &str {
+        self.str(name)
+    }
+
+    pub fn path(&self, name: &str) -> Option<&PathBuf> {
+        match self.get(name)? {
+            Val::Path(p) => Some(p),
+            v => panic!("property `{name}` is not a path: {v:?}"),
+        }
+    }
+
+    pub fn reference(&self, name: &str) -> Option<&str> {
+        match self.get(name)? {
+            Val::Ref(r) => Some(r),
+            v => panic!("property `{name}` is not a reference: {v:?}"),
+        }
+    }
+
+    pub fn refs(&self, name: &str) -> &[String] {
+        match self.expect(name) {
+            Val::Refs(r) => r,
+            v => panic!("property `{name}` is not a reference list: {v:?}"),
+        }
+    }
+
+    pub fn block(&self, name: &str) -> &Props {
+        match self.expect(name) {
+            Val::Block(b) => b,
+            v => panic!("property `{name}` is not a block: {v:?}"),
+        }
+    }
+
+    /// A canonical text of these properties, for stage keys.
+    pub fn canonical(&self) -> String {
+        serde_json::to_string(self).expect("props serialise")
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Decl {
+    pub kind: &'static str,
+    pub name: String,
+    pub name_span: Span,
+    pub span: Span,
+    pub file: FileId,
+    pub props: Props,
+    /// Names of declarations this one refers to, in first-use order.
+    pub deps: Vec<String>,
+}
+
+/// A resolved, type-checked scene.
+#[derive(Debug)]
+pub struct Scene {
+    pub root: PathBuf,
+    pub seed: u64,
+    pub size: (u32, u32),
+    pub decls: Vec<Decl>,
+    pub sources: SourceMap,
+}
+
+impl Scene {
+    pub fn decl(&self, name: &str) -> Option<&Decl> {
+        self.decls.iter().find(|d| d.name == name)
+    }
+
+    /// Declarations ordered so that each comes after everything it refers to.
+    pub fn topo_order(&self) -> Vec<&Decl> {
+        let mut order = Vec::with_capacity(self.decls.len());
+        let mut state = BTreeMap::new();
+        fn visit<'a>(s: &'a Scene, d: &'a Decl, state: &mut BTreeMap<&'a str, bool>, out: &mut Vec<&'a Decl>) {
+            if state.contains_key(d.name.as_str()) {
+                return;
+            }
+            state.insert(&d.name, false);
+            for dep in &d.deps {
+                if let Some(dd) = s.decl(dep) {
+                    visit(s, dd, state, out);
+                }
+            }
+            state.insert(&d.name, true);
+            out.push(d);
+        }
+        for d in &self.decls {
+            visit(self, d, &mut state, &mut order);
+        }
+        order
+    }
+}

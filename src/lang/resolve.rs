@@ -1,0 +1,764 @@
+//! Loading, name resolution and type checking: syntax trees in, a typed `Scene` out.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Component, Path, PathBuf};
+use std::sync::Arc;
+
+use super::ast::{self, ValueKind};
+use super::diag::{suggest, Diagnostic, Diagnostics};
+use super::ir::{Call, Decl, Prop, Props, Scene, Val};
+use super::parse::{parse_file, parse_value};
+use super::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit};
+use super::source::{FileId, SourceMap, Span};
+
+/// Where scene text comes from. The compiler reads every file through one such door so
+/// that the caller can hash and record what was read (watch mode follows those files).
+pub trait Loader {
+    fn load(&self, path: &Path) -> std::io::Result<Arc<str>>;
+}
+
+pub struct Options<'a> {
+    /// `--set name=value` overrides of `param` declarations.
+    pub sets: &'a [(String, String)],
+    pub registry: &'a [&'static KindSpec],
+}
+
+/// Compiles the scene rooted at `root` into a typed scene, or every problem found.
+pub fn compile(root: &Path, loader: &dyn Loader, opts: &Options) -> Result<Scene, Diagnostics> {
+    let mut cx = Cx { sources: SourceMap::default(), errors: Vec::new(), files: Vec::new() };
+    let root = normalize(root);
+    cx.load(&root, None, &mut Vec::new(), loader);
+    if !cx.errors.is_empty() {
+        return Err(Diagnostics::new(cx.errors, cx.sources));
+    }
+    let Cx { sources, mut errors, files } = cx;
+    let mut checker = Checker::new(opts, sources);
+    checker.collect(&files);
+    checker.apply_sets(opts.sets);
+    checker.check_all();
+    errors.append(&mut checker.errors);
+    if errors.is_empty() {
+        checker.check_cycles(&mut errors);
+    }
+    if !errors.is_empty() {
+        return Err(Diagnostics::new(errors, checker.sources));
+    }
+    Ok(Scene {
+        root,
+        seed: checker.seed,
+        size: checker.size,
+        decls: checker.out,
+        sources: checker.sources,
+    })
+}
+
+/// Lexical normalisation (`a/./b/../c` → `a/c`), so one file reached by two paths is one file.
+pub fn normalize(p: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                if !out.pop() {
+                    out.push("..");
+                }
+            }
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+struct Cx {
+    sources: SourceMap,
+    errors: Vec<Diagnostic>,
+    files: Vec<(FileId, ast::File)>,
+}
+
+impl Cx {
+    fn load(&mut self, path: &Path, via: Option<Span>, stack: &mut Vec<PathBuf>, loader: &dyn Loader) {
+        if let Some(pos) = stack.iter().position(|p| p == path) {
+            let chain: Vec<String> = stack[pos..]
+                .iter()
+                .chain(std::iter::once(&path.to_path_buf()))
+                .map(|p| file_name(p))
+                .collect();
+            let mut d = Diagnostic::error(format!("import cycle: {}", chain.join(" → ")))
+                .with_code("tessera::import_cycle")
+                .with_help("scenes may share declarations through imports, but no file may import itself, even indirectly");
+            if let Some(s) = via {
+                d = d.with_label(s, "this import closes the cycle");
+            }
+            self.errors.push(d);
+            return;
+        }
+        if self.sources.find(path).is_some() {
+            return; // already loaded through another import
+        }
+        let text = match loader.load(path) {
+            Ok(t) => t,
+            Err(e) => {
+                let mut d = Diagnostic::error(format!("cannot read `{}`: {e}", path.display()))
+                    .with_code("tessera::io");
+                if let Some(s) = via {
+                    d = d.with_label(s, "imported here");
+                }
+                self.errors.push(d);
+                return;
+            }
+        };
+        let id = self.sources.add(path.to_path_buf(), path.display().to_string(), text.clone());
+        let file = match parse_file(&text, id) {
+            Ok(f) => f,
+            Err(d) => {
+                self.errors.push(d);
+                return;
+            }
+        };
+        stack.push(path.to_path_buf());
+        let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+        for item in &file.items {
+            if let ast::Item::Import(imp) = item {
+                let target = normalize(&dir.join(&imp.path));
+                self.load(&target, Some(imp.path_span), stack, loader);
+            }
+        }
+        stack.pop();
+        self.files.push((id, file));
+    }
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
+}
+
+struct ParamDef {
+    value: ast::Value,
+    span: Span,
+}
+
+struct DeclAst<'a> {
+    spec: &'static KindSpec,
+    name: String,
+    name_span: Span,
+    decl: &'a ast::Decl,
+    file: FileId,
+}
+
+struct Checker<'a> {
+    registry: &'a [&'static KindSpec],
+    sources: SourceMap,
+    errors: Vec<Diagnostic>,
+    params: HashMap<String, ParamDef>,
+    decls: Vec<DeclAst<'a>>,
+    kinds: HashMap<String, &'static str>,
+    out: Vec<Decl>,
+    seed: u64,
+    size: (u32, u32),
+    default_file: Option<FileId>,
+    /// References made by the declaration being checked: (name, span).
+    deps: Vec<(String, Span)>,
+    ref_spans: BTreeMap<String, Vec<(String, Span)>>,
+}
+
+impl<'a> Checker<'a> {
+    fn new(opts: &'a Options, sources: SourceMap) -> Self {
+        Checker {
+            registry: opts.registry,
+            sources,
+            errors: Vec::new(),
+            params: HashMap::new(),
+            decls: Vec::new(),
+            kinds: HashMap::new(),
+            out: Vec::new(),
+            seed: 0,
+            size: (256, 256),
+            default_file: None,
+            deps: Vec::new(),
+            ref_spans: BTreeMap::new(),
+        }
+    }
+
+    fn spec(&self, kind: &str) -> Option<&'static KindSpec> {
+        self.registry.iter().copied().find(|k| k.name == kind)
+    }
+
+    fn collect(&mut self, files: &'a [(FileId, ast::File)]) {
+        let mut seen: HashMap<String, Span> = HashMap::new();
+        for (file, f) in files {
+            for item in &f.items {
+                match item {
+                    ast::Item::Param(p) => {
+                        if let Some(prev) = seen.get(&p.name.text) {
+                            self.errors.push(duplicate(&p.name.text, p.name.span, *prev));
+                            continue;
+                        }
+                        seen.insert(p.name.text.clone(), p.name.span);
+                        self.params.insert(p.name.text.clone(), ParamDef { value: p.value.clone(), span: p.name.span });
+                    }
+                    ast::Item::Decl(d) => self.collect_decl(d, *file, &mut seen),
+                    ast::Item::Comment(_) | ast::Item::Import(_) => {}
+                }
+            }
+        }
+    }
+
+    fn collect_decl(&mut self, d: &'a ast::Decl, file: FileId, seen: &mut HashMap<String, Span>) {
+        let Some(spec) = self.spec(&d.kind.text) else {
+            let mut diag = Diagnostic::error(format!("unknown declaration kind `{}`", d.kind.text))
+                .with_code("tessera::unknown_kind")
+                .with_label(d.kind.span, "not a kind tessera knows");
+            let names = self.registry.iter().map(|k| k.name);
+            diag = match suggest(&d.kind.text, names) {
+                Some(s) => diag.with_help(format!("did you mean `{s}`?")),
+                None => diag.with_help(format!(
+                    "the kinds are {}",
+                    self.registry.iter().map(|k| format!("`{}`", k.name)).collect::<Vec<_>>().join(", ")
+                )),
+            };
+            self.errors.push(diag);
+            return;
+        };
+        let (name, name_span) = match (spec.naming, &d.name) {
+            (Naming::Anonymous, None) => (spec.name.to_string(), d.kind.span),
+            (Naming::Anonymous, Some(n)) => {
+                self.errors.push(
+                    Diagnostic::error(format!("`{}` takes no name", spec.name))
+                        .with_code("tessera::naming")
+                        .with_label(n.span, "remove this name"),
+                );
+                return;
+            }
+            (Naming::Ident, Some(n)) if !n.quoted => (n.text.clone(), n.span),
+            (Naming::Path, Some(n)) if n.quoted => (n.text.clone(), n.span),
+            (Naming::Ident, _) => {
+                self.errors.push(
+                    Diagnostic::error(format!("a `{}` needs a name", spec.name))
+                        .with_code("tessera::naming")
+                        .with_label(d.name.as_ref().map_or(d.kind.span, |n| n.span), "expected a bare name here")
+                        .with_help(format!("write `{} my_name {{ ... }}`", spec.name)),
+                );
+                return;
+            }
+            (Naming::Path, _) => {
+                self.errors.push(
+                    Diagnostic::error(format!("a `{}` is named by a quoted file name", spec.name))
+                        .with_code("tessera::naming")
+                        .with_label(d.name.as_ref().map_or(d.kind.span, |n| n.span), "expected a string here")
+                        .with_help(format!("write `{} \"result.png\" {{ ... }}`", spec.name)),
+                );
+                return;
+            }
+        };
+        if let Some(prev) = seen.get(&name) {
+            self.errors.push(duplicate(&name, name_span, *prev));
+            return;
+        }
+        seen.insert(name.clone(), name_span);
+        self.kinds.insert(name.clone(), spec.name);
+        self.decls.push(DeclAst { spec, name, name_span, decl: d, file });
+    }
+
+    fn apply_sets(&mut self, sets: &[(String, String)]) {
+        for (name, text) in sets {
+            let Some(def) = self.params.get_mut(name) else {
+                let mut d = Diagnostic::error(format!("`--set {name}=…`: the scene declares no `param {name}`"))
+                    .with_code("tessera::unknown_param");
+                if let Some(s) = suggest(name, self.params.keys().map(|k| k.as_str())) {
+                    d = d.with_help(format!("did you mean `{s}`?"));
+                }
+                self.errors.push(d);
+                continue;
+            };
+            let id = self.sources.add(PathBuf::from("--set"), format!("--set {name}"), Arc::from(text.as_str()));
+            match parse_value(text, id) {
+                Ok(v) => def.value = v,
+                Err(d) => self.errors.push(d),
+            }
+        }
+    }
+
+    fn check_all(&mut self) {
+        // The scene block first: other defaults (`SceneSize`) depend on it.
+        let order: Vec<usize> = {
+            let mut v: Vec<usize> = (0..self.decls.len()).collect();
+            v.sort_by_key(|&i| self.decls[i].spec.naming != Naming::Anonymous);
+            v
+        };
+        for i in order {
+            let (spec, decl) = (self.decls[i].spec, self.decls[i].decl);
+            self.deps.clear();
+            let dir = self.dir_of(self.decls[i].file);
+            let props = self.check_block(&decl.block, spec.props, &dir, self.decls[i].name_span, spec.name);
+            if spec.name == "scene" {
+                if let Some(Val::Int(s)) = props.get("seed") {
+                    self.seed = *s as u64;
+                }
+                if let Some(Val::Size(w, h)) = props.get("size") {
+                    self.size = (*w, *h);
+                }
+            }
+            let d = &self.decls[i];
+            let mut deps: Vec<String> = Vec::new();
+            for (n, _) in &self.deps {
+                if !deps.contains(n) {
+                    deps.push(n.clone());
+                }
+            }
+            self.ref_spans.insert(d.name.clone(), self.deps.clone());
+            self.out.push(Decl {
+                kind: spec.name,
+                name: d.name.clone(),
+                name_span: d.name_span,
+                span: decl.span,
+                file: d.file,
+                props,
+                deps,
+            });
+        }
+        // Source order (files in import order), which is what users expect in reports.
+        let pos: HashMap<&str, usize> = self.decls.iter().enumerate().map(|(i, d)| (d.name.as_str(), i)).collect();
+        self.out.sort_by_key(|d| pos[d.name.as_str()]);
+    }
+
+    fn dir_of(&self, file: FileId) -> PathBuf {
+        self.sources.get(file).path.parent().unwrap_or(Path::new("")).to_path_buf()
+    }
+
+    fn check_block(&mut self, block: &ast::Block, specs: &[PropSpec], dir: &Path, owner: Span, what: &str) -> Props {
+        let mut props = Props::default();
+        let mut seen: HashMap<&str, Span> = HashMap::new();
+        for p in block.properties() {
+            let Some(spec) = specs.iter().find(|s| s.name == p.name.text) else {
+                self.errors.push(unknown_property(&p.name, specs, what));
+                continue;
+            };
+            if let Some(prev) = seen.get(spec.name) {
+                self.errors.push(
+                    Diagnostic::error(format!("property `{}` is set twice", spec.name))
+                        .with_code("tessera::duplicate_property")
+                        .with_label(p.name.span, "set again here")
+                        .with_label(*prev, "first set here"),
+                );
+                continue;
+            }
+            seen.insert(spec.name, p.name.span);
+            if let Some(val) = self.check_value(&p.value, &spec.ty, dir, 0) {
+                props.0.insert(spec.name.to_string(), Prop { val, span: Some(p.value.span) });
+            }
+        }
+        self.fill_defaults(&mut props, specs, owner, what, dir);
+        props
+    }
+
+    fn fill_defaults(&mut self, props: &mut Props, specs: &[PropSpec], owner: Span, what: &str, dir: &Path) {
+        for spec in specs {
+            if props.0.contains_key(spec.name) {
+                continue;
+            }
+            let val = match spec.default {
+                Default::Absent => continue,
+                Default::Required => {
+                    self.errors.push(
+                        Diagnostic::error(format!("`{what}` needs a `{}` property", spec.name))
+                            .with_code("tessera::missing_property")
+                            .with_label(owner, format!("`{}` is missing here", spec.name))
+                            .with_help(format!("{}: {}", spec.name, spec.doc)),
+                    );
+                    continue;
+                }
+                Default::SceneSize => Some(Val::Size(self.size.0, self.size.1)),
+                Default::Text(t) => {
+                    let file = *self.default_file.get_or_insert_with(|| {
+                        self.sources.add(PathBuf::from("<default>"), "<default>".into(), Arc::from(""))
+                    });
+                    let v = parse_value(t, file).expect("schema defaults parse");
+                    self.check_value(&v, &spec.ty, dir, 0)
+                }
+            };
+            if let Some(val) = val {
+                props.0.insert(spec.name.to_string(), Prop { val, span: None });
+            }
+        }
+    }
+
+    fn mismatch(&mut self, v: &ast::Value, ty: &Ty) -> Option<Val> {
+        self.errors.push(
+            Diagnostic::error(format!("expected {}, found {}", ty.describe(), v.kind.describe()))
+                .with_code("tessera::type")
+                .with_label(v.span, format!("expected {}", ty.describe())),
+        );
+        None
+    }
+
+    fn check_value(&mut self, v: &ast::Value, ty: &Ty, dir: &Path, depth: usize) -> Option<Val> {
+        // A bare name that is a `param` stands for the param's value, unless a declaration
+        // is expected and one of that name exists.
+        if let ValueKind::Ident(name) = &v.kind {
+            let wants_ref = matches!(ty, Ty::Ref(_) | Ty::Refs(_) | Ty::Source { .. });
+            if !(wants_ref && self.kinds.contains_key(name)) {
+                if let Some(def) = self.params.get(name) {
+                    if depth > 16 {
+                        self.errors.push(
+                            Diagnostic::error(format!("param `{name}` refers to itself"))
+                                .with_code("tessera::reference_cycle")
+                                .with_label(def.span, "in this param"),
+                        );
+                        return None;
+                    }
+                    let value = def.value.clone();
+                    return self.check_value(&value, ty, dir, depth + 1);
+                }
+            }
+        }
+        match (ty, &v.kind) {
+            (Ty::Number(unit, range), ValueKind::Number { value, unit: u, .. }) => {
+                let x = self.convert_unit(*value, u.as_deref(), *unit, v.span)?;
+                self.in_range(x, *range, *unit, v.span)
+            }
+            (Ty::Int(lo, hi), ValueKind::Number { value, unit: None, .. }) => {
+                if value.fract() != 0.0 || *value < *lo as f64 || *value > *hi as f64 {
+                    self.errors.push(
+                        Diagnostic::error(format!("expected an integer from {lo} to {hi}, found {value}"))
+                            .with_code("tessera::range")
+                            .with_label(v.span, "out of range"),
+                    );
+                    return None;
+                }
+                Some(Val::Int(*value as i64))
+            }
+            (Ty::Bool, ValueKind::Bool(b)) => Some(Val::Bool(*b)),
+            (Ty::Size, ValueKind::Size { w, h, .. }) => {
+                let ok = |x: f64| x.fract() == 0.0 && x >= 1.0 && x <= 65536.0;
+                if !ok(*w) || !ok(*h) {
+                    self.errors.push(
+                        Diagnostic::error("sizes are whole numbers of pixels from 1 to 65536")
+                            .with_code("tessera::range")
+                            .with_label(v.span, "invalid size"),
+                    );
+                    return None;
+                }
+                Some(Val::Size(*w as u32, *h as u32))
+            }
+            (Ty::Vec2(unit), ValueKind::Vector(items)) => {
+                if items.len() != 2 {
+                    self.errors.push(
+                        Diagnostic::error(format!("expected a vector of 2 numbers, found {}", items.len()))
+                            .with_code("tessera::type")
+                            .with_label(v.span, "expected `[x, y]`"),
+                    );
+                    return None;
+                }
+                self.numbers(items, *unit).map(Val::Numbers)
+            }
+            (Ty::Numbers(unit), ValueKind::Vector(items)) => self.numbers(items, *unit).map(Val::Numbers),
+            (Ty::Points, ValueKind::Vector(items)) => {
+                let mut pts = Vec::new();
+                for it in items {
+                    match &it.kind {
+                        ValueKind::Vector(xy) if xy.len() == 2 => {
+                            let n = self.numbers(xy, Unit::Length)?;
+                            pts.push([n[0], n[1]]);
+                        }
+                        _ => return self.mismatch(it, &Ty::Vec2(Unit::Length)),
+                    }
+                }
+                Some(Val::Points(pts))
+            }
+            (Ty::Str, ValueKind::Str(s)) => Some(Val::Str(s.clone())),
+            (Ty::Path, ValueKind::Str(s)) => {
+                if s.is_empty() {
+                    self.errors.push(
+                        Diagnostic::error("empty file path").with_code("tessera::type").with_label(v.span, "here"),
+                    );
+                    return None;
+                }
+                Some(Val::Path(normalize(&dir.join(s))))
+            }
+            (Ty::Enum(options), ValueKind::Ident(name)) => {
+                if options.contains(&name.as_str()) {
+                    Some(Val::Enum(name.clone()))
+                } else {
+                    let mut d = Diagnostic::error(format!("`{name}` is not one of {}", ty.describe()))
+                        .with_code("tessera::enum")
+                        .with_label(v.span, "unknown option");
+                    if let Some(s) = suggest(name, options.iter().copied()) {
+                        d = d.with_help(format!("did you mean `{s}`?"));
+                    }
+                    self.errors.push(d);
+                    None
+                }
+            }
+            (Ty::Ref(kinds), ValueKind::Ident(name)) => self.reference(name, v.span, kinds).map(Val::Ref),
+            (Ty::Refs(kinds), ValueKind::Vector(items)) => {
+                let mut out = Vec::new();
+                for it in items {
+                    match &it.kind {
+                        ValueKind::Ident(n) => out.push(self.reference(n, it.span, kinds)?),
+                        _ => return self.mismatch(it, &Ty::Ref(kinds)),
+                    }
+                }
+                Some(Val::Refs(out))
+            }
+            (Ty::Source { refs, .. }, ValueKind::Ident(name)) if !refs.is_empty() => {
+                self.reference(name, v.span, refs).map(Val::Ref)
+            }
+            (Ty::Source { calls, .. }, ValueKind::Call { name, args }) => self.call(calls, name, args, v.span, dir),
+            (Ty::Block(specs), ValueKind::Block(b)) => {
+                Some(Val::Block(self.check_block(b, specs, dir, v.span, "block")))
+            }
+            (Ty::Block(_), _) => self.mismatch(v, ty),
+            (_, ValueKind::Ident(name)) if !matches!(ty, Ty::Enum(_)) && !self.kinds.contains_key(name) => {
+                self.unknown_name(name, v.span, ty)
+            }
+            _ => self.mismatch(v, ty),
+        }
+    }
+
+    fn unknown_name(&mut self, name: &str, span: Span, ty: &Ty) -> Option<Val> {
+        let mut d = Diagnostic::error(format!("unknown name `{name}`"))
+            .with_code("tessera::unknown_name")
+            .with_label(span, format!("expected {}", ty.describe()));
+        let candidates: Vec<&str> = self.params.keys().map(|k| k.as_str()).collect();
+        if let Some(s) = suggest(name, candidates) {
+            d = d.with_help(format!("did you mean the param `{s}`?"));
+        }
+        self.errors.push(d);
+        None
+    }
+
+    fn numbers(&mut self, items: &[ast::Value], unit: Unit) -> Option<Vec<f64>> {
+        let mut out = Vec::with_capacity(items.len());
+        for it in items {
+            match self.check_value(it, &Ty::Number(unit, super::schema::ANY), Path::new(""), 0)? {
+                Val::Num(x) => out.push(x),
+                _ => return None,
+            }
+        }
+        Some(out)
+    }
+
+    fn convert_unit(&mut self, x: f64, written: Option<&str>, unit: Unit, span: Span) -> Option<f64> {
+        let v = match (unit, written) {
+            (Unit::Length, None | Some("px")) => Some(x),
+            (Unit::Angle, None | Some("deg")) => Some(x.to_radians()),
+            (Unit::Angle, Some("rad")) => Some(x),
+            (Unit::Fraction, None) => Some(x),
+            (Unit::Fraction, Some("%")) => Some(x / 100.0),
+            (Unit::Plain, None) => Some(x),
+            _ => None,
+        };
+        if v.is_none() {
+            let w = written.unwrap_or("");
+            let help = match unit {
+                Unit::Length => "lengths are in pixels: write `px` or no unit",
+                Unit::Angle => "angles take `deg` (the default) or `rad`",
+                Unit::Fraction => "fractions are plain numbers or percentages",
+                Unit::Plain => "remove the unit",
+            };
+            self.errors.push(
+                Diagnostic::error(format!("unit `{w}` does not fit here: expected {}", unit.describe()))
+                    .with_code("tessera::unit")
+                    .with_label(span, "wrong unit")
+                    .with_help(help),
+            );
+        }
+        v
+    }
+
+    fn in_range(&mut self, x: f64, r: Range, unit: Unit, span: Span) -> Option<Val> {
+        if x >= r.min && x <= r.max {
+            return Some(Val::Num(x));
+        }
+        let shown = |b: f64| if unit == Unit::Angle { format!("{} deg", b.to_degrees()) } else { format!("{b}") };
+        let msg = if r.max == f64::INFINITY && r.min == f64::MIN_POSITIVE {
+            "must be greater than 0".to_string()
+        } else if r.max == f64::INFINITY {
+            format!("must be at least {}", shown(r.min))
+        } else {
+            format!("must be from {} to {}", shown(r.min), shown(r.max))
+        };
+        self.errors.push(
+            Diagnostic::error(format!("value out of range: {msg}"))
+                .with_code("tessera::range")
+                .with_label(span, msg),
+        );
+        None
+    }
+
+    fn reference(&mut self, name: &str, span: Span, kinds: &[&str]) -> Option<String> {
+        match self.kinds.get(name) {
+            Some(k) if kinds.contains(k) => {
+                self.deps.push((name.to_string(), span));
+                Some(name.to_string())
+            }
+            Some(k) => {
+                self.errors.push(
+                    Diagnostic::error(format!("`{name}` is a {k}, but a {} is expected here", kinds.join(" or ")))
+                        .with_code("tessera::wrong_kind")
+                        .with_label(span, format!("this is a {k}")),
+                );
+                None
+            }
+            None => {
+                let mut d = Diagnostic::error(format!("unknown name `{name}`"))
+                    .with_code("tessera::unknown_name")
+                    .with_label(span, format!("no {} of this name", kinds.join(" or ")));
+                let candidates: Vec<&str> =
+                    self.kinds.iter().filter(|(_, k)| kinds.contains(k)).map(|(n, _)| n.as_str()).collect();
+                if let Some(s) = suggest(name, candidates) {
+                    d = d.with_help(format!("did you mean `{s}`?"));
+                }
+                self.errors.push(d);
+                None
+            }
+        }
+    }
+
+    fn call(&mut self, calls: &[CallSpec], name: &ast::Ident, args: &[ast::Arg], span: Span, dir: &Path) -> Option<Val> {
+        let Some(spec) = calls.iter().find(|c| c.name == name.text) else {
+            let mut d = Diagnostic::error(format!("unknown constructor `{}`", name.text))
+                .with_code("tessera::unknown_constructor")
+                .with_label(name.span, "not available here");
+            d = match suggest(&name.text, calls.iter().map(|c| c.name)) {
+                Some(s) => d.with_help(format!("did you mean `{s}`?")),
+                None => d.with_help(format!(
+                    "the constructors here are {}",
+                    calls.iter().map(|c| format!("`{}`", c.name)).collect::<Vec<_>>().join(", ")
+                )),
+            };
+            self.errors.push(d);
+            return None;
+        };
+        let mut props = Props::default();
+        let mut named_seen = false;
+        let mut ok = true;
+        for (i, a) in args.iter().enumerate() {
+            let arg_spec = match &a.name {
+                Some(n) => {
+                    named_seen = true;
+                    match spec.args.iter().find(|s| s.name == n.text) {
+                        Some(s) => s,
+                        None => {
+                            self.errors.push(unknown_property(n, spec.args, spec.name));
+                            ok = false;
+                            continue;
+                        }
+                    }
+                }
+                None if named_seen => {
+                    self.errors.push(
+                        Diagnostic::error("positional arguments must come before named ones")
+                            .with_code("tessera::call")
+                            .with_label(a.value.span, "name this argument"),
+                    );
+                    ok = false;
+                    continue;
+                }
+                None => match spec.args.get(i) {
+                    Some(s) => s,
+                    None => {
+                        self.errors.push(
+                            Diagnostic::error(format!("`{}` takes at most {} arguments", spec.name, spec.args.len()))
+                                .with_code("tessera::call")
+                                .with_label(a.value.span, "one too many"),
+                        );
+                        ok = false;
+                        continue;
+                    }
+                },
+            };
+            if props.0.contains_key(arg_spec.name) {
+                self.errors.push(
+                    Diagnostic::error(format!("argument `{}` is given twice", arg_spec.name))
+                        .with_code("tessera::duplicate_property")
+                        .with_label(a.value.span, "given again here"),
+                );
+                ok = false;
+                continue;
+            }
+            match self.check_value(&a.value, &arg_spec.ty, dir, 0) {
+                Some(val) => {
+                    props.0.insert(arg_spec.name.to_string(), Prop { val, span: Some(a.value.span) });
+                }
+                None => ok = false,
+            }
+        }
+        let before = self.errors.len();
+        self.fill_defaults(&mut props, spec.args, span, spec.name, dir);
+        if !ok || self.errors.len() > before {
+            return None;
+        }
+        Some(Val::Call(Call { name: spec.name.to_string(), args: props }))
+    }
+
+    fn check_cycles(&self, errors: &mut Vec<Diagnostic>) {
+        // Colour DFS over declaration references; report each cycle once.
+        let mut state: HashMap<&str, u8> = HashMap::new();
+        let mut stack: Vec<(&str, Span)> = Vec::new();
+        fn visit<'b>(
+            c: &'b Checker,
+            n: &'b str,
+            state: &mut HashMap<&'b str, u8>,
+            stack: &mut Vec<(&'b str, Span)>,
+            errors: &mut Vec<Diagnostic>,
+        ) {
+            state.insert(n, 1);
+            for (dep, span) in c.ref_spans.get(n).map(|v| v.as_slice()).unwrap_or(&[]) {
+                match state.get(dep.as_str()) {
+                    Some(1) => {
+                        let start = stack.iter().position(|(s, _)| *s == dep.as_str()).unwrap_or(0);
+                        let mut names: Vec<&str> = stack[start..].iter().map(|(s, _)| *s).collect();
+                        names.push(n);
+                        names.push(dep);
+                        names.dedup();
+                        let mut d = Diagnostic::error(format!("reference cycle: {}", names.join(" → ")))
+                            .with_code("tessera::reference_cycle")
+                            .with_label(*span, format!("`{n}` refers to `{dep}` here"))
+                            .with_help("a declaration cannot depend on its own result; break the cycle");
+                        for (s, sp) in stack[start..].iter().skip(1) {
+                            d = d.with_label(*sp, format!("…which leads to `{s}`"));
+                        }
+                        errors.push(d);
+                    }
+                    Some(_) => {}
+                    None => {
+                        stack.push((dep, *span));
+                        visit(c, dep, state, stack, errors);
+                        stack.pop();
+                    }
+                }
+            }
+            state.insert(n, 2);
+        }
+        for d in &self.out {
+            if !state.contains_key(d.name.as_str()) {
+                stack.push((&d.name, d.name_span));
+                visit(self, &d.name, &mut state, &mut stack, errors);
+                stack.pop();
+            }
+        }
+    }
+}
+
+fn duplicate(name: &str, span: Span, prev: Span) -> Diagnostic {
+    Diagnostic::error(format!("`{name}` is declared twice"))
+        .with_code("tessera::duplicate_name")
+        .with_label(span, "declared again here")
+        .with_label(prev, "first declared here")
+        .with_help("names are shared by all declarations and params of a scene and its imports; rename one")
+}
+
+fn unknown_property(name: &ast::Ident, specs: &[PropSpec], what: &str) -> Diagnostic {
+    let mut d = Diagnostic::error(format!("unknown property `{}` for `{what}`", name.text))
+        .with_code("tessera::unknown_property")
+        .with_label(name.span, "unknown property");
+    d = match suggest(&name.text, specs.iter().map(|s| s.name)) {
+        Some(s) => d.with_help(format!("did you mean `{s}`?")),
+        None => d.with_help(format!(
+            "`{what}` takes {}",
+            specs.iter().map(|s| format!("`{}`", s.name)).collect::<Vec<_>>().join(", ")
+        )),
+    };
+    d
+}

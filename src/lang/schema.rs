@@ -1,0 +1,190 @@
+//! The typed schema of declaration kinds: every property's type, default and doc line.
+//!
+//! The language knows how to check a declaration against a `KindSpec`, but not which kinds
+//! exist: each module in `stages/` declares its kind's spec next to the code that plans its
+//! stages, and the registry is handed to the resolver. Adding a kind is one file.
+
+/// How a declaration of this kind is named.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Naming {
+    /// `scene { ... }`: no name, at most one per scene.
+    Anonymous,
+    /// `map density { ... }`: an identifier other declarations refer to.
+    Ident,
+    /// `output "a.png" { ... }`: a quoted output path.
+    Path,
+}
+
+#[derive(Debug)]
+pub struct KindSpec {
+    pub name: &'static str,
+    pub doc: &'static str,
+    pub naming: Naming,
+    pub props: &'static [PropSpec],
+}
+
+#[derive(Debug)]
+pub struct PropSpec {
+    pub name: &'static str,
+    pub ty: Ty,
+    pub default: Default,
+    pub doc: &'static str,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Default {
+    /// The user must give a value.
+    Required,
+    /// Optional; when absent, the property has no value at all.
+    Absent,
+    /// Source text of the default value, checked like user input.
+    Text(&'static str),
+    /// The scene's `size`.
+    SceneSize,
+}
+
+/// Which units a number accepts, and the canonical unit it is stored in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unit {
+    /// Pixels: `px` or no unit.
+    Length,
+    /// Angles, stored in radians: `deg` (the default when no unit is written) or `rad`.
+    Angle,
+    /// A fraction, stored in [0, 1] units: plain (`0.25`) or percent (`25 %`).
+    Fraction,
+    /// A plain number with no unit.
+    Plain,
+}
+
+impl Unit {
+    pub fn describe(self) -> &'static str {
+        match self {
+            Unit::Length => "a length (`px`)",
+            Unit::Angle => "an angle (`deg` or `rad`)",
+            Unit::Fraction => "a fraction (plain or `%`)",
+            Unit::Plain => "a plain number",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Range {
+    pub min: f64,
+    pub max: f64,
+}
+
+pub const ANY: Range = Range { min: f64::NEG_INFINITY, max: f64::INFINITY };
+pub const NON_NEG: Range = Range { min: 0.0, max: f64::INFINITY };
+pub const POSITIVE: Range = Range { min: f64::MIN_POSITIVE, max: f64::INFINITY };
+pub const UNIT: Range = Range { min: 0.0, max: 1.0 };
+
+#[derive(Debug)]
+pub enum Ty {
+    Number(Unit, Range),
+    Int(i64, i64),
+    Bool,
+    /// `W x H`, both positive integers.
+    Size,
+    /// `[x, y]`.
+    Vec2(Unit),
+    /// `[a, b, ...]` of any length.
+    Numbers(Unit),
+    /// `[[x, y], [x, y], ...]`.
+    Points,
+    Str,
+    /// A string naming a file, relative to the declaring scene file.
+    Path,
+    Enum(&'static [&'static str]),
+    /// A reference to a declaration of one of these kinds.
+    Ref(&'static [&'static str]),
+    /// A vector of references.
+    Refs(&'static [&'static str]),
+    /// A constructor call from `calls`, or a reference to one of `refs`.
+    Source { calls: &'static [CallSpec], refs: &'static [&'static str] },
+    /// A nested property block.
+    Block(&'static [PropSpec]),
+}
+
+impl Ty {
+    pub fn describe(&self) -> String {
+        match self {
+            Ty::Number(u, _) => u.describe().to_string(),
+            Ty::Int(..) => "an integer".into(),
+            Ty::Bool => "`true` or `false`".into(),
+            Ty::Size => "a size `W x H`".into(),
+            Ty::Vec2(_) => "a vector `[x, y]`".into(),
+            Ty::Numbers(_) => "a vector of numbers".into(),
+            Ty::Points => "a list of points `[[x, y], ...]`".into(),
+            Ty::Str => "a string".into(),
+            Ty::Path => "a file path string".into(),
+            Ty::Enum(vs) => format!("one of {}", list(vs)),
+            Ty::Ref(ks) => format!("a reference to a {}", ks.join(" or ")),
+            Ty::Refs(ks) => format!("a vector of references to {}", ks.join(" or ")),
+            Ty::Source { calls, refs } => {
+                let mut alts: Vec<String> = calls.iter().map(|c| format!("`{}(...)`", c.name)).collect();
+                if !refs.is_empty() {
+                    alts.push(format!("a {} name", refs.join(" or ")));
+                }
+                format!("one of {}", alts.join(", "))
+            }
+            Ty::Block(_) => "a block `{ ... }`".into(),
+        }
+    }
+}
+
+fn list(vs: &[&str]) -> String {
+    vs.iter().map(|v| format!("`{v}`")).collect::<Vec<_>>().join(", ")
+}
+
+/// A constructor such as `image("a.png")` or `radial(center = [0, 0])`. Arguments are
+/// properties; leading required ones may also be given by position.
+#[derive(Debug)]
+pub struct CallSpec {
+    pub name: &'static str,
+    pub doc: &'static str,
+    pub args: &'static [PropSpec],
+}
+
+impl KindSpec {
+    pub fn prop(&self, name: &str) -> Option<&PropSpec> {
+        self.props.iter().find(|p| p.name == name)
+    }
+}
+
+/// Renders a kind's schema as text, for `tessera explain`.
+pub fn explain(spec: &KindSpec) -> String {
+    let mut out = String::new();
+    let name_hint = match spec.naming {
+        Naming::Anonymous => "",
+        Naming::Ident => " NAME",
+        Naming::Path => " \"FILE\"",
+    };
+    out.push_str(&format!("{}{} {{ ... }}\n\n{}\n\nProperties:\n", spec.name, name_hint, spec.doc));
+    explain_props(spec.props, 1, &mut out);
+    out
+}
+
+fn explain_props(props: &[PropSpec], depth: usize, out: &mut String) {
+    let pad = "  ".repeat(depth);
+    for p in props {
+        let default = match p.default {
+            Default::Required => "required".to_string(),
+            Default::Absent => "optional".to_string(),
+            Default::Text(t) => format!("default {t}"),
+            Default::SceneSize => "default: the scene size".to_string(),
+        };
+        out.push_str(&format!("{pad}{:<12} {}; {}\n", p.name, p.ty.describe(), default));
+        out.push_str(&format!("{pad}{:<12} {}\n", "", p.doc));
+        match &p.ty {
+            Ty::Block(inner) => explain_props(inner, depth + 1, out),
+            Ty::Source { calls, .. } => {
+                for c in calls.iter() {
+                    let args: Vec<&str> = c.args.iter().map(|a| a.name).collect();
+                    out.push_str(&format!("{pad}  {}({}): {}\n", c.name, args.join(", "), c.doc));
+                    explain_props(c.args, depth + 2, out);
+                }
+            }
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,3 @@
+//! The algorithms: pure functions on plain data. No file I/O, no cache, no graph.
+pub mod map;
+pub mod rng;
