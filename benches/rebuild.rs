@@ -1,1 +1,66 @@
-fn main() {}
+//! No-op rebuild of each example scene: target < 50 ms.
+//!
+//! Two views: the library call a long-lived process makes (open the project, compile, key,
+//! load the outputs' artifacts, compare with the files on disk), and the whole CLI process
+//! as a user runs it (`tessera build scene -q`), process start-up included.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use tessera::project::Project;
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let target = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), target).unwrap();
+        }
+    }
+}
+
+fn workspace() -> tempfile::TempDir {
+    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    for sub in ["scenes", "samples"] {
+        copy_dir(&repo.join(sub), &dir.path().join(sub));
+    }
+    std::fs::copy(repo.join("tessera.toml"), dir.path().join("tessera.toml")).unwrap();
+    dir
+}
+
+fn noop_rebuild(c: &mut Criterion) {
+    let dir = workspace();
+    let root = dir.path();
+    let bin = env!("CARGO_BIN_EXE_tessera");
+    let status = Command::new(bin).args(["build", "-q"]).current_dir(root).status().unwrap();
+    assert!(status.success());
+    let mut group = c.benchmark_group("noop_rebuild");
+    group.sample_size(30);
+    for scene in ["masks", "fields", "wall"] {
+        let path = PathBuf::from(format!("scenes/{scene}.tess"));
+        group.bench_function(format!("{scene}/library"), |b| {
+            b.iter(|| {
+                let p = Project::open(root).unwrap();
+                let built = p.build(&root.join(&path)).unwrap();
+                assert_eq!(built.report.ran().count(), 0);
+                let emitted = p.emit(&built).unwrap();
+                assert!(emitted.iter().all(|e| !e.written));
+            })
+        });
+        group.bench_function(format!("{scene}/cli"), |b| {
+            b.iter(|| {
+                let s = Command::new(bin).args(["build", "-q"]).arg(&path).current_dir(root).status().unwrap();
+                assert!(s.success());
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, noop_rebuild);
+criterion_main!(benches);

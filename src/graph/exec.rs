@@ -133,7 +133,8 @@ impl Executor<'_> {
         // a run, which may need more inputs, so iterate until every load succeeds.
         let to_run = loop {
             let (load, run) = self.plan(graph, targets, &keys, &values, &corrupt);
-            let loaded: Vec<(NodeId, Option<(Artifact, Status)>, f64)> = load
+            type Loaded = (NodeId, Option<(Artifact, Status)>, f64);
+            let loaded: Vec<Loaded> = load
                 .par_iter()
                 .map(|&n| {
                     let t = Instant::now();
@@ -249,8 +250,8 @@ impl Executor<'_> {
                 continue;
             }
             let k = &keys[&n];
-            let cached = !corrupt.contains(&n)
-                && (self.memory.is_some_and(|m| m.get(k).is_some()) || self.cache.contains(k));
+            let cached =
+                !corrupt.contains(&n) && (self.memory.is_some_and(|m| m.get(k).is_some()) || self.cache.contains(k));
             if cached {
                 load.push(n);
             } else {

@@ -20,11 +20,13 @@ pub struct StageError {
     pub help: Option<String>,
     /// Which input file, if the failure is about one (index into the node's `files`).
     pub file: Option<usize>,
+    /// Which property of the declaration, if the failure is about one.
+    pub prop: Option<&'static str>,
 }
 
 impl StageError {
     pub fn new(message: impl Into<String>) -> Self {
-        StageError { message: message.into(), help: None, file: None }
+        StageError { message: message.into(), help: None, file: None, prop: None }
     }
 
     pub fn with_help(mut self, help: impl Into<String>) -> Self {
@@ -34,6 +36,11 @@ impl StageError {
 
     pub fn in_file(mut self, index: usize) -> Self {
         self.file = Some(index);
+        self
+    }
+
+    pub fn at_prop(mut self, prop: &'static str) -> Self {
+        self.prop = Some(prop);
         self
     }
 }
@@ -83,9 +90,7 @@ impl RunCx<'_> {
 
     pub fn file(&self, i: usize) -> Result<Arc<[u8]>, StageError> {
         let path = &self.files[i];
-        self.world
-            .read(path)
-            .map_err(|e| StageError::new(format!("cannot read `{}`: {e}", path.display())).in_file(i))
+        self.world.read(path).map_err(|e| StageError::new(format!("cannot read `{}`: {e}", path.display())).in_file(i))
     }
 
     /// Reports progress of a long stage; shown as a bar on a terminal.

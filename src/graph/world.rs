@@ -66,10 +66,10 @@ impl World {
         }
         let bytes: Arc<[u8]> = std::fs::read(path)?.into();
         let hash = *blake3::hash(&bytes).as_bytes();
-        self.entries.lock().expect("world lock").insert(
-            path.to_path_buf(),
-            Entry { len: bytes.len() as u64, mtime, hash, bytes: Some(bytes.clone()) },
-        );
+        self.entries
+            .lock()
+            .expect("world lock")
+            .insert(path.to_path_buf(), Entry { len: bytes.len() as u64, mtime, hash, bytes: Some(bytes.clone()) });
         Ok(bytes)
     }
 

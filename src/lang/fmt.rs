@@ -44,8 +44,8 @@ impl Formatter<'_> {
                         continue;
                     }
                 }
-                let decl_boundary = matches!(item, Item::Decl(_)) && !matches!(p, Item::Comment(_))
-                    || matches!(p, Item::Decl(_));
+                let decl_boundary =
+                    matches!(item, Item::Decl(_)) && !matches!(p, Item::Comment(_)) || matches!(p, Item::Decl(_));
                 if decl_boundary || self.blank_between(pend, start) {
                     self.out.push('\n');
                 }

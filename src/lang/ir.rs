@@ -28,7 +28,7 @@ pub enum Val {
     Block(Props),
 }
 
-fn file_name_only<S: serde::Serializer>(p: &PathBuf, s: S) -> Result<S::Ok, S::Error> {
+fn file_name_only<S: serde::Serializer>(p: &std::path::Path, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_str(&p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
 }
 

@@ -13,14 +13,13 @@ struct SceneParser;
 
 /// Parses a whole scene file.
 pub fn parse_file(text: &str, file: FileId) -> Result<File, Diagnostic> {
+    // Track expected literal tokens (`)`, `,`, `=`) too, not only rules, so that a
+    // syntax error can say "expected `,` or `)`".
+    pest::set_error_detail(true);
     let mut pairs = SceneParser::parse(Rule::file, text).map_err(|e| syntax_error(e, file))?;
     let root = pairs.next().expect("pest yields the file rule");
     let b = Builder { file };
-    let items = root
-        .into_inner()
-        .filter(|p| p.as_rule() != Rule::EOI)
-        .map(|p| b.item(p))
-        .collect();
+    let items = root.into_inner().filter(|p| p.as_rule() != Rule::EOI).map(|p| b.item(p)).collect();
     Ok(File { items })
 }
 
@@ -44,8 +43,33 @@ fn syntax_error(e: pest::error::Error<Rule>, file: FileId) -> Diagnostic {
         InputLocation::Pos(p) => (p, p),
         InputLocation::Span((a, b)) => (a, b),
     };
+    let tokens: Vec<String> = e
+        .parse_attempts()
+        .map(|a| {
+            a.expected_tokens()
+                .into_iter()
+                .map(|t| t.to_string())
+                // Punctuation only: letters, digits and comment starts are never the fix.
+                .filter(|t| matches!(t.as_str(), ")" | "," | "=" | "{" | "}" | "]" | "("))
+                .map(|t| format!("`{t}`"))
+                .collect()
+        })
+        .unwrap_or_default();
     let expected = match &e.variant {
-        ErrorVariant::ParsingError { positives, .. } => describe_rules(positives),
+        ErrorVariant::ParsingError { positives, .. } => {
+            // Optional trailers (a unit after a number, a comment) are never what is missing.
+            let rules: Vec<Rule> =
+                positives.iter().copied().filter(|r| !matches!(r, Rule::unit | Rule::comment)).collect();
+            let mut parts: Vec<String> = Vec::new();
+            let candidates: Vec<String> =
+                rules.iter().map(|r| describe_rule(r).to_string()).chain(tokens.iter().cloned()).collect();
+            for p in candidates {
+                if !parts.contains(&p) {
+                    parts.push(p);
+                }
+            }
+            join_alternatives(&parts)
+        }
         ErrorVariant::CustomError { message } => message.clone(),
     };
     Diagnostic::error(format!("syntax error: expected {expected}"))
@@ -53,43 +77,33 @@ fn syntax_error(e: pest::error::Error<Rule>, file: FileId) -> Diagnostic {
         .with_label(Span::new(file, start, end), "here")
 }
 
-fn describe_rules(rules: &[Rule]) -> String {
-    let mut names: Vec<&str> = rules
-        .iter()
-        .map(|r| match r {
-            Rule::EOI => "end of file",
-            Rule::item | Rule::decl | Rule::kind => "a declaration",
-            Rule::import => "`import`",
-            Rule::param => "`param`",
-            Rule::comment => "a comment",
-            Rule::block => "`{`",
-            Rule::property => "a property",
-            Rule::ident | Rule::decl_name => "a name",
-            Rule::value | Rule::arg | Rule::named_arg => "a value",
-            Rule::string | Rule::string_inner => "a string",
-            Rule::number | Rule::quantity => "a number",
-            Rule::size => "a size",
-            Rule::vector => "a vector",
-            Rule::call => "a call",
-            Rule::unit => "a unit",
-            Rule::boolean => "`true` or `false`",
-            _ => "something else",
-        })
-        .collect();
-    names.dedup();
-    let mut seen = Vec::new();
-    for n in names {
-        if !seen.contains(&n) {
-            seen.push(n);
-        }
+fn join_alternatives(parts: &[String]) -> String {
+    match parts {
+        [] => "something else".into(),
+        [one] => one.clone(),
+        [rest @ .., last] => format!("{} or {}", rest.join(", "), last),
     }
-    match seen.len() {
-        0 => "something else".into(),
-        1 => seen[0].into(),
-        _ => {
-            let (last, rest) = seen.split_last().expect("non-empty");
-            format!("{} or {}", rest.join(", "), last)
-        }
+}
+
+fn describe_rule(rule: &Rule) -> &'static str {
+    match rule {
+        Rule::EOI => "end of file",
+        Rule::item | Rule::decl | Rule::kind => "a declaration",
+        Rule::import => "`import`",
+        Rule::param => "`param`",
+        Rule::comment => "a comment",
+        Rule::block => "`{`",
+        Rule::property => "a property",
+        Rule::ident | Rule::decl_name => "a name",
+        Rule::value | Rule::arg | Rule::named_arg => "a value",
+        Rule::string | Rule::string_inner => "a string",
+        Rule::number | Rule::quantity => "a number",
+        Rule::size => "a size",
+        Rule::vector => "a vector",
+        Rule::call => "a call",
+        Rule::unit => "a unit",
+        Rule::boolean => "`true` or `false`",
+        _ => "something else",
     }
 }
 

@@ -43,13 +43,7 @@ pub fn compile(root: &Path, loader: &dyn Loader, opts: &Options) -> Result<Scene
     if !errors.is_empty() {
         return Err(Diagnostics::new(errors, checker.sources));
     }
-    Ok(Scene {
-        root,
-        seed: checker.seed,
-        size: checker.size,
-        decls: checker.out,
-        sources: checker.sources,
-    })
+    Ok(Scene { root, seed: checker.seed, size: checker.size, decls: checker.out, sources: checker.sources })
 }
 
 /// Lexical normalisation (`a/./b/../c` → `a/c`), so one file reached by two paths is one file.
@@ -78,14 +72,13 @@ struct Cx {
 impl Cx {
     fn load(&mut self, path: &Path, via: Option<Span>, stack: &mut Vec<PathBuf>, loader: &dyn Loader) {
         if let Some(pos) = stack.iter().position(|p| p == path) {
-            let chain: Vec<String> = stack[pos..]
-                .iter()
-                .chain(std::iter::once(&path.to_path_buf()))
-                .map(|p| file_name(p))
-                .collect();
+            let chain: Vec<String> =
+                stack[pos..].iter().chain(std::iter::once(&path.to_path_buf())).map(|p| file_name(p)).collect();
             let mut d = Diagnostic::error(format!("import cycle: {}", chain.join(" → ")))
                 .with_code("tessera::import_cycle")
-                .with_help("scenes may share declarations through imports, but no file may import itself, even indirectly");
+                .with_help(
+                    "scenes may share declarations through imports, but no file may import itself, even indirectly",
+                );
             if let Some(s) = via {
                 d = d.with_label(s, "this import closes the cycle");
             }
@@ -98,8 +91,8 @@ impl Cx {
         let text = match loader.load(path) {
             Ok(t) => t,
             Err(e) => {
-                let mut d = Diagnostic::error(format!("cannot read `{}`: {e}", path.display()))
-                    .with_code("tessera::io");
+                let mut d =
+                    Diagnostic::error(format!("cannot read `{}`: {e}", path.display())).with_code("tessera::io");
                 if let Some(s) = via {
                     d = d.with_label(s, "imported here");
                 }
@@ -429,7 +422,7 @@ impl<'a> Checker<'a> {
             }
             (Ty::Bool, ValueKind::Bool(b)) => Some(Val::Bool(*b)),
             (Ty::Size, ValueKind::Size { w, h, .. }) => {
-                let ok = |x: f64| x.fract() == 0.0 && x >= 1.0 && x <= 65536.0;
+                let ok = |x: f64| x.fract() == 0.0 && (1.0..=65536.0).contains(&x);
                 if !ok(*w) || !ok(*h) {
                     self.errors.push(
                         Diagnostic::error("sizes are whole numbers of pixels from 1 to 65536")
@@ -567,6 +560,14 @@ impl<'a> Checker<'a> {
     }
 
     fn in_range(&mut self, x: f64, r: Range, unit: Unit, span: Span) -> Option<Val> {
+        if !x.is_finite() {
+            self.errors.push(
+                Diagnostic::error("number too large")
+                    .with_code("tessera::range")
+                    .with_label(span, "not a finite number"),
+            );
+            return None;
+        }
         if x >= r.min && x <= r.max {
             return Some(Val::Num(x));
         }
@@ -579,9 +580,7 @@ impl<'a> Checker<'a> {
             format!("must be from {} to {}", shown(r.min), shown(r.max))
         };
         self.errors.push(
-            Diagnostic::error(format!("value out of range: {msg}"))
-                .with_code("tessera::range")
-                .with_label(span, msg),
+            Diagnostic::error(format!("value out of range: {msg}")).with_code("tessera::range").with_label(span, msg),
         );
         None
     }
@@ -615,7 +614,14 @@ impl<'a> Checker<'a> {
         }
     }
 
-    fn call(&mut self, calls: &[CallSpec], name: &ast::Ident, args: &[ast::Arg], span: Span, dir: &Path) -> Option<Val> {
+    fn call(
+        &mut self,
+        calls: &[CallSpec],
+        name: &ast::Ident,
+        args: &[ast::Arg],
+        span: Span,
+        dir: &Path,
+    ) -> Option<Val> {
         let Some(spec) = calls.iter().find(|c| c.name == name.text) else {
             let mut d = Diagnostic::error(format!("unknown constructor `{}`", name.text))
                 .with_code("tessera::unknown_constructor")

@@ -100,7 +100,10 @@ pub enum Ty {
     /// A vector of references.
     Refs(&'static [&'static str]),
     /// A constructor call from `calls`, or a reference to one of `refs`.
-    Source { calls: &'static [CallSpec], refs: &'static [&'static str] },
+    Source {
+        calls: &'static [CallSpec],
+        refs: &'static [&'static str],
+    },
     /// A nested property block.
     Block(&'static [PropSpec]),
 }
@@ -186,5 +189,42 @@ fn explain_props(props: &[PropSpec], depth: usize, out: &mut String) {
             }
             _ => {}
         }
+    }
+}
+
+/// Renders a kind's schema as Markdown, for the language reference.
+pub fn markdown(spec: &KindSpec) -> String {
+    let mut out = String::new();
+    let name_hint = match spec.naming {
+        Naming::Anonymous => "",
+        Naming::Ident => " name",
+        Naming::Path => " \"file\"",
+    };
+    out.push_str(&format!("### `{}{} {{ … }}`\n\n{}\n\n", spec.name, name_hint, spec.doc));
+    markdown_props(spec.props, &mut out);
+    for p in spec.props {
+        if let Ty::Source { calls, .. } = &p.ty {
+            out.push_str(&format!("\nConstructors for `{}`:\n\n", p.name));
+            for c in calls.iter() {
+                let args: Vec<&str> = c.args.iter().map(|a| a.name).collect();
+                out.push_str(&format!("#### `{}({})`\n\n{}\n\n", c.name, args.join(", "), c.doc));
+                markdown_props(c.args, &mut out);
+            }
+        }
+    }
+    out
+}
+
+fn markdown_props(props: &[PropSpec], out: &mut String) {
+    out.push_str("| property | type | default | meaning |\n|---|---|---|---|\n");
+    for p in props {
+        let default = match p.default {
+            Default::Required => "required".to_string(),
+            Default::Absent => "none".to_string(),
+            Default::Text(t) => format!("`{t}`"),
+            Default::SceneSize => "scene size".to_string(),
+        };
+        let ty = p.ty.describe().replace('|', "\\|");
+        out.push_str(&format!("| `{}` | {} | {} | {} |\n", p.name, ty, default, p.doc.replace('|', "\\|")));
     }
 }

@@ -22,12 +22,7 @@ impl Image {
     }
 
     /// Builds an image from a function of `(x, y, channel)`.
-    pub fn from_fn(
-        width: usize,
-        height: usize,
-        channels: usize,
-        f: impl Fn(usize, usize, usize) -> f32,
-    ) -> Self {
+    pub fn from_fn(width: usize, height: usize, channels: usize, f: impl Fn(usize, usize, usize) -> f32) -> Self {
         let mut data = Vec::with_capacity(width * height * channels);
         for c in 0..channels {
             for y in 0..height {

@@ -1,3 +1,5 @@
 //! The algorithms: pure functions on plain data. No file I/O, no cache, no graph.
 pub mod map;
 pub mod rng;
+pub mod structure;
+pub mod surface;

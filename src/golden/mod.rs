@@ -1,0 +1,10 @@
+//! Golden-file comparison: decides whether a rendered output matches its reference and
+//! draws a picture of where it does not. Pure functions on [`Image`]s; the CLI's `check`
+//! command does the file handling.
+//!
+//! [`Image`]: crate::raster::Image
+mod compare;
+mod diff;
+
+pub use compare::{compare, Comparison, Tolerance};
+pub use diff::diff_image;

@@ -1,0 +1,53 @@
+//! `tessera watch`: rebuild a scene whenever a file it read changes.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use super::{Built, Emitted, Failed, Project};
+use crate::graph::watch::Watcher;
+use crate::graph::MemoryCache;
+
+/// What happened on one pass of the loop, for the caller to print.
+pub enum WatchEvent<'a> {
+    Built {
+        built: &'a Built,
+        emitted: &'a [Emitted],
+        millis: f64,
+    },
+    Failed {
+        failed: &'a Failed,
+    },
+    /// The watcher itself failed (the file system would not let us watch).
+    Error(String),
+}
+
+/// Builds `scene`, then rebuilds on every change of a file the last build read, until the
+/// watcher shuts down. A failed build keeps the previous outputs and is retried on the
+/// next change.
+pub fn watch(project: &mut Project, scene: &Path, debounce: Duration, mut on: impl FnMut(WatchEvent)) {
+    project.memory.get_or_insert_with(MemoryCache::default);
+    let mut watcher = match Watcher::new() {
+        Ok(w) => w,
+        Err(e) => return on(WatchEvent::Error(format!("cannot watch files: {e}"))),
+    };
+    loop {
+        let start = Instant::now();
+        project.world.begin_build();
+        match project.build(scene).and_then(|b| project.emit(&b).map(|e| (b, e))) {
+            Ok((built, emitted)) => on(WatchEvent::Built {
+                built: &built,
+                emitted: &emitted,
+                millis: start.elapsed().as_secs_f64() * 1000.0,
+            }),
+            Err(failed) => on(WatchEvent::Failed { failed: &failed }),
+        }
+        let mut files: Vec<PathBuf> = project.world.accessed();
+        files.push(scene.to_path_buf());
+        if let Err(e) = watcher.follow(files) {
+            return on(WatchEvent::Error(format!("cannot watch files: {e}")));
+        }
+        if watcher.wait(debounce).is_none() {
+            return;
+        }
+    }
+}

@@ -1,0 +1,95 @@
+//! Artifact types and their cache encodings, and a stage built from a closure.
+
+use std::any::Any;
+use std::sync::Arc;
+
+use crate::graph::{Artifact, RunCx, Stage, StageError};
+use crate::raster::{self, Image};
+use crate::synth::surface::Plane;
+
+/// An artifact type that can live in the on-disk cache.
+pub trait Encoded: Any + Send + Sync + Sized {
+    fn encode(&self) -> Vec<u8>;
+    fn decode(bytes: &[u8]) -> Result<Self, String>;
+}
+
+impl Encoded for Image {
+    fn encode(&self) -> Vec<u8> {
+        raster::codec::to_bytes(self)
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        raster::codec::from_bytes(bytes).map_err(|e| e.to_string())
+    }
+}
+
+/// Opaque file bytes: encoded outputs, and sample files passed through for later stages.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Bytes(pub Vec<u8>);
+
+impl Encoded for Bytes {
+    fn encode(&self) -> Vec<u8> {
+        self.0.clone()
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        Ok(Bytes(bytes.to_vec()))
+    }
+}
+
+impl Encoded for Plane {
+    fn encode(&self) -> Vec<u8> {
+        self.occupancy.encode()
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        Ok(Plane { occupancy: Image::decode(bytes)? })
+    }
+}
+
+type RunFn<T> = dyn Fn(&RunCx) -> Result<T, StageError> + Send + Sync;
+
+/// A stage whose work is a closure over its (already canonicalised) parameters.
+pub struct FnStage<T: Encoded> {
+    kind: &'static str,
+    version: u32,
+    params: String,
+    run: Box<RunFn<T>>,
+}
+
+impl<T: Encoded> FnStage<T> {
+    pub fn new(
+        kind: &'static str,
+        version: u32,
+        params: String,
+        run: impl Fn(&RunCx) -> Result<T, StageError> + Send + Sync + 'static,
+    ) -> Self {
+        FnStage { kind, version, params, run: Box::new(run) }
+    }
+}
+
+impl<T: Encoded> Stage for FnStage<T> {
+    fn kind(&self) -> &'static str {
+        self.kind
+    }
+
+    fn version(&self) -> u32 {
+        self.version
+    }
+
+    fn params(&self) -> String {
+        self.params.clone()
+    }
+
+    fn run(&self, cx: &RunCx) -> Result<Artifact, StageError> {
+        (self.run)(cx).map(|v| Arc::new(v) as Artifact)
+    }
+
+    fn encode(&self, artifact: &Artifact) -> Vec<u8> {
+        artifact.downcast_ref::<T>().expect("artifact of this stage's type").encode()
+    }
+
+    fn decode(&self, bytes: &[u8]) -> Result<Artifact, String> {
+        T::decode(bytes).map(|v| Arc::new(v) as Artifact)
+    }
+}

@@ -1,0 +1,146 @@
+//! Declarations → stages. One module per declaration kind: its schema (`SPEC`) and the
+//! code that turns a checked declaration into nodes of the stage graph. This is the only
+//! layer that knows both the language and the algorithms.
+
+mod artifact;
+mod map;
+mod output;
+mod sample;
+mod scene;
+mod surface;
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+pub use artifact::{Bytes, Encoded, FnStage};
+pub use output::{OutputFormat, PlannedOutput};
+
+use crate::graph::{Graph, Node, NodeId, Stage};
+use crate::lang::source::Span;
+use crate::lang::{Decl, Diagnostic, KindSpec, Scene};
+
+/// Every declaration kind the language accepts.
+pub fn registry() -> Vec<&'static KindSpec> {
+    vec![&scene::SPEC, &sample::SPEC, &map::SPEC, &surface::SPEC, &output::SPEC]
+}
+
+/// Where to point when a node fails.
+#[derive(Clone, Debug)]
+pub struct Blame {
+    pub decl: usize,
+    pub span: Span,
+    /// For each of the node's files, the span of the string that named it.
+    pub files: Vec<Span>,
+}
+
+/// A scene planned into a stage graph.
+pub struct Plan {
+    pub graph: Graph,
+    pub outputs: Vec<PlannedOutput>,
+    pub blame: Vec<Blame>,
+}
+
+impl Plan {
+    /// A stage failure as a diagnostic pointing into the scene.
+    pub fn diagnose(&self, scene: &Scene, failure: &crate::graph::Failure) -> Diagnostic {
+        let blame = &self.blame[failure.node];
+        let decl = &scene.decls[blame.decl];
+        let (span, label) = if let Some(s) = failure.error.file.and_then(|i| blame.files.get(i).copied()) {
+            (s, "this file")
+        } else if let Some(s) = failure.error.prop.and_then(|p| decl.props.span(p)) {
+            (s, "this value")
+        } else {
+            (blame.span, "in this declaration")
+        };
+        let mut d =
+            Diagnostic::error(failure.error.message.clone()).with_code("tessera::stage").with_label(span, label);
+        if let Some(h) = &failure.error.help {
+            d = d.with_help(h.clone());
+        }
+        d
+    }
+}
+
+pub(crate) struct Planner<'a> {
+    pub scene: &'a Scene,
+    graph: Graph,
+    blame: Vec<Blame>,
+    /// The node holding each declaration's result.
+    results: HashMap<String, NodeId>,
+    outputs: Vec<PlannedOutput>,
+    decl_index: usize,
+}
+
+impl Planner<'_> {
+    pub fn add(
+        &mut self,
+        label: String,
+        stage: impl Stage + 'static,
+        inputs: Vec<NodeId>,
+        files: Vec<(PathBuf, Span)>,
+    ) -> NodeId {
+        let decl = &self.scene.decls[self.decl_index];
+        let (files, spans): (Vec<PathBuf>, Vec<Span>) = files.into_iter().unzip();
+        self.blame.push(Blame { decl: self.decl_index, span: decl.name_span, files: spans });
+        self.graph.add(Node { label, stage: Box::new(stage), inputs, files, origin: self.decl_index })
+    }
+
+    /// The node added last.
+    pub fn last(&self) -> NodeId {
+        self.graph.nodes.len() - 1
+    }
+
+    /// The node holding the result of the declaration `name` (planned earlier).
+    pub fn result(&self, name: &str) -> NodeId {
+        self.results[name]
+    }
+
+    pub fn decl(&self, name: &str) -> &Decl {
+        self.scene.decl(name).expect("resolved reference")
+    }
+
+    /// A seed for a random stream of this declaration.
+    pub fn seed(&self, decl: &Decl, stream: &str) -> u64 {
+        crate::synth::rng::derive_seed(self.scene.seed, &decl.name, stream)
+    }
+}
+
+/// Plans a resolved scene. Errors are problems only visible with the whole declaration in
+/// view (a crop outside the image's declared size, an output extension tessera cannot write).
+pub fn plan(scene: &Scene) -> Result<Plan, Vec<Diagnostic>> {
+    let mut p = Planner {
+        scene,
+        graph: Graph::default(),
+        blame: Vec::new(),
+        results: HashMap::new(),
+        outputs: Vec::new(),
+        decl_index: 0,
+    };
+    let mut errors = Vec::new();
+    let index: HashMap<&str, usize> = scene.decls.iter().enumerate().map(|(i, d)| (d.name.as_str(), i)).collect();
+    for d in scene.topo_order() {
+        // A declaration that depends on a failed one is not planned (its error would only repeat).
+        if d.deps.iter().any(|dep| !p.results.contains_key(dep) && scene.decl(dep).is_some_and(|x| x.kind != "scene")) {
+            continue;
+        }
+        p.decl_index = index[d.name.as_str()];
+        let r = match d.kind {
+            "scene" => continue,
+            "sample" => sample::plan(&mut p, d),
+            "map" => map::plan(&mut p, d),
+            "surface" => surface::plan(&mut p, d),
+            "output" => output::plan(&mut p, d),
+            k => unreachable!("kind `{k}` is in the registry but has no planner"),
+        };
+        match r {
+            Ok(node) => {
+                p.results.insert(d.name.clone(), node);
+            }
+            Err(e) => errors.push(e),
+        }
+    }
+    if !errors.is_empty() {
+        return Err(errors);
+    }
+    Ok(Plan { graph: p.graph, outputs: p.outputs, blame: p.blame })
+}

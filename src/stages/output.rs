@@ -1,0 +1,172 @@
+//! `output "file" { from = ... }`: encodes a result to a file's bytes. The bytes are a
+//! cached artifact; writing them to disk (atomically, only when changed) is the driver's job.
+
+use super::{sample::transfer, Bytes, FnStage, Planner};
+use crate::graph::{NodeId, StageError};
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, UNIT};
+use crate::lang::source::Span;
+use crate::lang::{Decl, Diagnostic};
+use crate::raster::{self, Image};
+use crate::synth::surface::Plane;
+
+pub static SPEC: KindSpec = KindSpec {
+    name: "output",
+    doc: "Writes a result to a file under the output directory (`out/<scene>/<name>`), checked against `golden/<scene>/<name>` by `tessera check`.",
+    naming: Naming::Path,
+    props: &[
+        PropSpec {
+            name: "from",
+            ty: Ty::Ref(&["map", "sample", "surface"]),
+            default: Default::Required,
+            doc: "What to write. Maps are written as data; 2-channel orientation fields as RGB (x, y → R, G); samples in sRGB; surfaces as their occupancy.",
+        },
+        PropSpec {
+            name: "format",
+            ty: Ty::Enum(&["auto", "png8", "png16", "exr"]),
+            default: Default::Text("auto"),
+            doc: "File format; `auto` picks from the extension (`.png` → 8-bit PNG, `.exr` → 32-bit float EXR).",
+        },
+        PropSpec {
+            name: "tolerance",
+            ty: Ty::Number(Unit::Fraction, UNIT),
+            default: Default::Absent,
+            doc: "Golden check: largest per-channel difference (in [0, 1] units) a pixel may have; default from tessera.toml.",
+        },
+        PropSpec {
+            name: "outliers",
+            ty: Ty::Number(Unit::Fraction, UNIT),
+            default: Default::Text("0"),
+            doc: "Golden check: fraction of pixels allowed beyond `tolerance`.",
+        },
+    ],
+};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    Png8,
+    Png16,
+    Exr,
+}
+
+#[derive(Clone, Debug)]
+pub struct PlannedOutput {
+    /// The path under the scene's output directory.
+    pub name: String,
+    pub node: NodeId,
+    pub format: OutputFormat,
+    pub tolerance: Option<f64>,
+    pub outliers: f64,
+    pub span: Span,
+}
+
+/// How the source's pixels become file pixels.
+#[derive(Clone, Copy)]
+enum View {
+    Data,
+    Sample { color: SampleColor },
+    Plane,
+}
+
+#[derive(Clone, Copy)]
+enum SampleColor {
+    Srgb,
+    Linear,
+    Lab,
+}
+
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+    let ext = std::path::Path::new(&d.name).extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let format = match (d.props.enumeration("format"), ext.as_str()) {
+        ("auto" | "png8", "png") => OutputFormat::Png8,
+        ("png16", "png") => OutputFormat::Png16,
+        ("auto" | "exr", "exr") => OutputFormat::Exr,
+        (f, e) => {
+            let span = d.props.span("format").unwrap_or(d.name_span);
+            return Err(Diagnostic::error(if f == "auto" {
+                format!("tessera cannot write `.{e}` files")
+            } else {
+                format!("format `{f}` does not match the extension `.{e}`")
+            })
+            .with_code("tessera::output_format")
+            .with_label(span, "here")
+            .with_help("outputs are `.png` (8- or 16-bit) or `.exr` files"));
+        }
+    };
+    if d.name.contains("..") || std::path::Path::new(&d.name).is_absolute() {
+        return Err(Diagnostic::error("output names are paths inside the scene's output directory")
+            .with_code("tessera::output_name")
+            .with_label(d.name_span, "no `..` or absolute paths here"));
+    }
+    let from = d.props.reference("from").expect("required");
+    let src = p.decl(from);
+    let view = match src.kind {
+        "sample" => View::Sample {
+            color: match src.props.enumeration("color") {
+                "linear" => SampleColor::Linear,
+                "lab" => SampleColor::Lab,
+                _ => SampleColor::Srgb,
+            },
+        },
+        "surface" => View::Plane,
+        _ => View::Data,
+    };
+    let input = p.result(from);
+    let params =
+        serde_json::json!({ "format": format!("{format:?}"), "source": src.kind, "color": src.props.get("color") })
+            .to_string();
+    let stage = FnStage::new("output.encode", 1, params, move |cx| {
+        let img: Image = match view {
+            View::Plane => cx.input::<Plane>(0).occupancy.clone(),
+            View::Sample { color } => {
+                let img = cx.input::<Image>(0);
+                to_file_space(&img, color, format)
+            }
+            View::Data => {
+                let img = cx.input::<Image>(0);
+                if img.channels == 2 && format != OutputFormat::Exr {
+                    vector_view(&img)
+                } else {
+                    (*img).clone()
+                }
+            }
+        };
+        let bytes = match format {
+            OutputFormat::Png8 => raster::io::encode_png(&img, 8),
+            OutputFormat::Png16 => raster::io::encode_png(&img, 16),
+            OutputFormat::Exr => raster::io::encode_exr(&img),
+        }
+        .map_err(|e| StageError::new(format!("cannot encode the output: {e}")))?;
+        Ok(Bytes(bytes))
+    });
+    let node = p.add(format!("output {}", d.name), stage, vec![input], vec![]);
+    p.outputs.push(PlannedOutput {
+        name: d.name.clone(),
+        node,
+        format,
+        tolerance: d.props.opt_num("tolerance"),
+        outliers: d.props.num("outliers"),
+        span: d.name_span,
+    });
+    Ok(node)
+}
+
+/// Samples are stored in their declared colour space; PNGs hold sRGB and EXRs linear.
+fn to_file_space(img: &Image, color: SampleColor, format: OutputFormat) -> Image {
+    let linear = match color {
+        SampleColor::Linear => img.clone(),
+        SampleColor::Srgb => transfer(img, raster::color::srgb_to_linear),
+        SampleColor::Lab => raster::color::image_lab_to_linear(img),
+    };
+    match format {
+        OutputFormat::Exr => linear,
+        _ => transfer(&linear, raster::color::linear_to_srgb),
+    }
+}
+
+/// An orientation field as a viewable picture: x → red, y → green, mid-grey blue.
+fn vector_view(img: &Image) -> Image {
+    Image::from_fn(img.width, img.height, 3, |x, y, c| match c {
+        0 | 1 => 0.5 + 0.5 * img.get(x, y, c),
+        _ => 0.5,
+    })
+}

@@ -1,0 +1,23 @@
+//! `scene { seed size }`: settings shared by every declaration.
+
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty};
+
+pub static SPEC: KindSpec = KindSpec {
+    name: "scene",
+    doc: "Scene-wide settings. At most one per scene (imports included).",
+    naming: Naming::Anonymous,
+    props: &[
+        PropSpec {
+            name: "seed",
+            ty: Ty::Int(0, 1 << 53),
+            default: Default::Text("0"),
+            doc: "Seed of every random stream; each declaration derives its own stream from it and its name.",
+        },
+        PropSpec {
+            name: "size",
+            ty: Ty::Size,
+            default: Default::Text("256 x 256"),
+            doc: "Default size in pixels of maps and surfaces.",
+        },
+    ],
+};

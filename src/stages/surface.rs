@@ -1,0 +1,55 @@
+//! `surface`: the target a layer is synthesised on.
+
+use super::{FnStage, Planner};
+use crate::graph::{NodeId, StageError};
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty};
+use crate::lang::{Decl, Diagnostic};
+use crate::raster::Image;
+use crate::synth::surface::Plane;
+
+pub static SPEC: KindSpec = KindSpec {
+    name: "surface",
+    doc: "A target surface. Today a plane: a rectangle of pixels, optionally with an occupancy map.",
+    naming: Naming::Ident,
+    props: &[
+        PropSpec { name: "plane", ty: Ty::Size, default: Default::SceneSize, doc: "Size of the plane in pixels." },
+        PropSpec {
+            name: "occupancy",
+            ty: Ty::Ref(&["map"]),
+            default: Default::Absent,
+            doc:
+                "A scalar map: 1 where detail goes, 0 where it must not (windows, holes). Must match the plane's size.",
+        },
+    ],
+};
+
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+    let (w, h) = d.props.size("plane");
+    let (w, h) = (w as usize, h as usize);
+    let mut inputs = Vec::new();
+    if let Some(m) = d.props.reference("occupancy") {
+        inputs.push(p.result(m));
+    }
+    let params = d.props.canonical();
+    let stage = FnStage::new("surface.plane", 1, params, move |cx| {
+        if cx.input_count() == 0 {
+            return Ok(Plane::full(w, h));
+        }
+        let occ = cx.input::<Image>(0);
+        if occ.width != w || occ.height != h {
+            return Err(StageError::new(format!(
+                "the occupancy map is {}x{} but the plane is {w}x{h}",
+                occ.width, occ.height
+            ))
+            .at_prop("occupancy")
+            .with_help("give the map `size` the plane's size"));
+        }
+        if occ.channels != 1 {
+            return Err(
+                StageError::new("the occupancy map must be scalar, not an orientation field").at_prop("occupancy")
+            );
+        }
+        Ok(Plane { occupancy: (*occ).clone() })
+    });
+    Ok(p.add(format!("surface {}", d.name), stage, inputs, Vec::new()))
+}

@@ -1,0 +1,56 @@
+//! Plain data shared by structure analysis and synthesis (digest 004 §1).
+//!
+//! Conventions: pixel units, `f64` geometry, y pointing down, pixel `(i, j)` has its centre
+//! at `(i + 0.5, j + 0.5)`. Angles are radians measured from +x towards +y (the same
+//! convention as orientation maps).
+
+use serde::{Deserialize, Serialize};
+
+pub type Point = [f64; 2];
+
+/// An ellipse with semi-axes `a ≥ b > 0` and major-axis angle `theta ∈ [0, π)`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Ellipse {
+    pub center: Point,
+    pub a: f64,
+    pub b: f64,
+    pub theta: f64,
+}
+
+/// A hand-drawn (or generated) planar straight-line graph: the structure sample.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Subdivision {
+    pub vertices: Vec<Point>,
+    pub edges: Vec<[usize; 2]>,
+}
+
+/// The value of an unlabelled pixel in a `Labels` raster.
+pub const NO_REGION: u32 = u32::MAX;
+
+/// A label raster: one region id per pixel, row-major.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Labels {
+    pub width: usize,
+    pub height: usize,
+    pub data: Vec<u32>,
+}
+
+impl Labels {
+    pub fn new(width: usize, height: usize) -> Self {
+        Labels { width, height, data: vec![NO_REGION; width * height] }
+    }
+
+    #[inline]
+    pub fn get(&self, x: usize, y: usize) -> u32 {
+        self.data[y * self.width + x]
+    }
+}
+
+/// A polygon mesh tiling (part of) the plane: shared vertices, one vertex cycle per region.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Mesh {
+    pub vertices: Vec<Point>,
+    /// Each region's boundary as a cycle of vertex indices, counter-clockwise on screen
+    /// (positive signed area with y down).
+    pub regions: Vec<Vec<usize>>,
+}

@@ -1,0 +1,176 @@
+//! Helpers shared by the integration tests: a scratch project and the `tessera` binary.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A temporary scene repository with a `tessera.toml` and the given files.
+pub struct Project {
+    pub dir: tempfile::TempDir,
+}
+
+impl Project {
+    pub fn new(files: &[(&str, &str)]) -> Self {
+        let dir = tempfile::tempdir().expect("tempdir");
+        std::fs::write(dir.path().join("tessera.toml"), "[paths]\nscenes = \".\"\n").expect("manifest");
+        let p = Project { dir };
+        for (name, text) in files {
+            p.write(name, text);
+        }
+        p
+    }
+
+    /// A copy of this repository's scenes, samples and goldens.
+    pub fn copy_of_repo() -> Self {
+        let dir = tempfile::tempdir().expect("tempdir");
+        for sub in ["scenes", "samples", "golden"] {
+            copy_dir(&repo().join(sub), &dir.path().join(sub));
+        }
+        std::fs::copy(repo().join("tessera.toml"), dir.path().join("tessera.toml")).expect("manifest");
+        Project { dir }
+    }
+
+    pub fn path(&self, rel: &str) -> PathBuf {
+        self.dir.path().join(rel)
+    }
+
+    pub fn write(&self, rel: &str, text: &str) {
+        let p = self.path(rel);
+        std::fs::create_dir_all(p.parent().expect("parent")).expect("mkdir");
+        std::fs::write(p, text).expect("write");
+    }
+
+    pub fn write_bytes(&self, rel: &str, bytes: &[u8]) {
+        let p = self.path(rel);
+        std::fs::create_dir_all(p.parent().expect("parent")).expect("mkdir");
+        std::fs::write(p, bytes).expect("write");
+    }
+
+    pub fn read(&self, rel: &str) -> Vec<u8> {
+        std::fs::read(self.path(rel)).unwrap_or_else(|e| panic!("read {rel}: {e}"))
+    }
+
+    pub fn tessera(&self, args: &[&str]) -> Run {
+        run_in(self.dir.path(), args)
+    }
+
+    /// Builds with a JSON stage report and returns the report's stages of the first scene.
+    pub fn build_report(&self, args: &[&str]) -> (Run, Vec<Stage>) {
+        let report = self.path("report.json");
+        let mut all: Vec<&str> = vec!["build", "--report", report.to_str().expect("utf-8 path")];
+        all.extend_from_slice(args);
+        let run = self.tessera(&all);
+        let stages =
+            if report.exists() { parse_report(&std::fs::read_to_string(&report).expect("report")) } else { vec![] };
+        let _ = std::fs::remove_file(&report);
+        (run, stages)
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stage {
+    pub label: String,
+    pub kind: String,
+    pub status: String,
+}
+
+pub fn parse_report(json: &str) -> Vec<Stage> {
+    let v: serde_json::Value = serde_json::from_str(json).expect("report is JSON");
+    v["scenes"]
+        .as_array()
+        .expect("scenes")
+        .iter()
+        .flat_map(|s| s["stages"].as_array().expect("stages").clone())
+        .map(|s| Stage {
+            label: s["label"].as_str().expect("label").into(),
+            kind: s["kind"].as_str().expect("kind").into(),
+            status: s["status"].as_str().expect("status").into(),
+        })
+        .collect()
+}
+
+pub fn ran(stages: &[Stage]) -> Vec<String> {
+    let mut v: Vec<String> =
+        stages.iter().filter(|s| s.status == "ran" || s.status == "rebuilt").map(|s| s.label.clone()).collect();
+    v.sort();
+    v
+}
+
+pub struct Run {
+    pub out: Output,
+}
+
+impl Run {
+    pub fn code(&self) -> i32 {
+        self.out.status.code().unwrap_or(-1)
+    }
+    pub fn stdout(&self) -> String {
+        String::from_utf8_lossy(&self.out.stdout).into_owned()
+    }
+    pub fn stderr(&self) -> String {
+        String::from_utf8_lossy(&self.out.stderr).into_owned()
+    }
+    #[track_caller]
+    pub fn ok(&self) -> &Self {
+        assert_eq!(self.code(), 0, "tessera failed:\nstdout:\n{}\nstderr:\n{}", self.stdout(), self.stderr());
+        self
+    }
+    /// Failed cleanly: exit code 1 and no panic.
+    #[track_caller]
+    pub fn failed(&self) -> &Self {
+        assert_eq!(self.code(), 1, "expected exit 1:\nstdout:\n{}\nstderr:\n{}", self.stdout(), self.stderr());
+        assert!(!self.stderr().contains("panicked"), "panic:\n{}", self.stderr());
+        self
+    }
+}
+
+pub fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_tessera")
+}
+
+pub fn run_in(dir: &Path, args: &[&str]) -> Run {
+    let out = Command::new(bin())
+        .args(args)
+        .current_dir(dir)
+        .env("NO_COLOR", "1")
+        .env_remove("RUST_BACKTRACE")
+        .output()
+        .expect("run tessera");
+    Run { out }
+}
+
+pub fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("mkdir");
+    for e in std::fs::read_dir(from).expect("read_dir") {
+        let e = e.expect("entry");
+        let target = to.join(e.file_name());
+        if e.file_type().expect("type").is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), target).expect("copy");
+        }
+    }
+}
+
+/// Every file under `dir`, relative, with its bytes; for comparing two output trees.
+pub fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    fn walk(base: &Path, d: &Path, out: &mut Vec<(PathBuf, Vec<u8>)>) {
+        let Ok(rd) = std::fs::read_dir(d) else { return };
+        for e in rd {
+            let p = e.expect("entry").path();
+            if p.is_dir() {
+                walk(base, &p, out);
+            } else {
+                out.push((p.strip_prefix(base).expect("prefix").to_path_buf(), std::fs::read(&p).expect("read")));
+            }
+        }
+    }
+    walk(dir, dir, &mut out);
+    out.sort();
+    out
+}

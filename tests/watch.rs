@@ -1,0 +1,118 @@
+//! `tessera watch`: an edit rebuilds the output; a broken edit prints a diagnostic and keeps
+//! the old output; the fix rebuilds. Prints the edit-to-output latency.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::{channel, Receiver};
+use std::time::{Duration, Instant};
+
+use common::Project;
+
+struct Watch {
+    child: Child,
+    lines: Receiver<String>,
+}
+
+impl Watch {
+    fn start(p: &Project, scene: &str) -> Watch {
+        let mut child = Command::new(common::bin())
+            .args(["watch", scene])
+            .current_dir(p.dir.path())
+            .env("NO_COLOR", "1")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn watch");
+        let (tx, rx) = channel();
+        let out = child.stdout.take().expect("stdout");
+        let err = child.stderr.take().expect("stderr");
+        let tx2 = tx.clone();
+        std::thread::spawn(move || BufReader::new(out).lines().map_while(Result::ok).for_each(|l| drop(tx.send(l))));
+        std::thread::spawn(move || BufReader::new(err).lines().map_while(Result::ok).for_each(|l| drop(tx2.send(l))));
+        Watch { child, lines: rx }
+    }
+
+    /// Lines up to and including the first that contains `needle`.
+    fn until(&self, needle: &str) -> Vec<String> {
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let mut seen = Vec::new();
+        while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+            match self.lines.recv_timeout(left) {
+                Ok(l) => {
+                    let hit = l.contains(needle);
+                    seen.push(l);
+                    if hit {
+                        return seen;
+                    }
+                }
+                Err(_) => break,
+            }
+        }
+        panic!("no line containing {needle:?} within 20 s; saw:\n{}", seen.join("\n"));
+    }
+}
+
+impl Drop for Watch {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+const SCENE: &str = "map a {\n  from = constant(0.25)\n  size = 32 x 32\n}\n\noutput \"a.png\" { from = a }\n";
+
+fn value(p: &Project) -> f32 {
+    let img = tessera::raster::io::decode(&p.read("out/scene/a.png")).expect("decode");
+    img.get(0, 0, 0)
+}
+
+/// Writes the scene and waits until the output file holds `want`; returns the latency.
+fn edit_and_wait(p: &Project, w: &Watch, text: &str, want: f32) -> Duration {
+    // Filesystems with coarse timestamps need the edit to land in a new tick.
+    std::thread::sleep(Duration::from_millis(20));
+    let start = Instant::now();
+    p.write("scene.tess", text);
+    w.until("[watch] built");
+    let latency = start.elapsed();
+    assert!((value(p) - want).abs() < 0.003, "output holds {}, want {want}", value(p));
+    latency
+}
+
+#[test]
+fn edits_rebuild_broken_edits_keep_the_output_and_fixes_recover() {
+    let p = Project::new(&[("scene.tess", SCENE)]);
+    let w = Watch::start(&p, "scene.tess");
+    w.until("[watch] built");
+    assert!((value(&p) - 0.25).abs() < 0.003);
+
+    let first = edit_and_wait(&p, &w, &SCENE.replace("0.25", "0.5"), 0.5);
+
+    // A broken edit: a diagnostic, the old output stays.
+    std::thread::sleep(Duration::from_millis(20));
+    p.write("scene.tess", &SCENE.replace("constant(0.25)", "constnt(0.75)"));
+    let lines = w.until("build failed").join("\n");
+    assert!(lines.contains("unknown constructor `constnt`"), "{lines}");
+    assert!((value(&p) - 0.5).abs() < 0.003, "a failed rebuild changed the output");
+
+    // The fix rebuilds.
+    let fix = edit_and_wait(&p, &w, &SCENE.replace("0.25", "0.75"), 0.75);
+    let again = edit_and_wait(&p, &w, &SCENE.replace("0.25", "1.0"), 1.0);
+    eprintln!("watch edit-to-output latency: {first:?}, {fix:?}, {again:?}");
+}
+
+#[test]
+fn watch_follows_input_files_read_by_the_build() {
+    let scene = "map a {\n  from = image(\"in.png\")\n  size = 8 x 8\n}\noutput \"a.png\" { from = a }\n";
+    let p = Project::new(&[("scene.tess", scene)]);
+    let png = |v: f32| tessera::raster::io::encode_png(&tessera::raster::Image::filled(8, 8, 1, v), 8).expect("encode");
+    p.write_bytes("in.png", &png(0.2));
+    let w = Watch::start(&p, "scene.tess");
+    w.until("[watch] built");
+    std::thread::sleep(Duration::from_millis(20));
+    p.write_bytes("in.png", &png(0.8));
+    let lines = w.until("[watch] built").join("\n");
+    assert!(lines.contains("map a"), "the image reader did not re-run: {lines}");
+    assert!((value(&p) - 0.8).abs() < 0.003);
+}
