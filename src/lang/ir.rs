@@ -25,6 +25,7 @@ pub enum Val {
     Ref(String),
     Refs(Vec<String>),
     Call(Call),
+    Calls(Vec<Call>),
     Block(Props),
 }
 
@@ -36,6 +37,9 @@ fn file_name_only<S: serde::Serializer>(p: &std::path::Path, s: S) -> Result<S::
 pub struct Call {
     pub name: String,
     pub args: Props,
+    /// Where the call was written, for errors found when it is applied.
+    #[serde(skip)]
+    pub span: Option<Span>,
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -152,6 +156,13 @@ impl Props {
         match self.expect(name) {
             Val::Refs(r) => r,
             v => panic!("property `{name}` is not a reference list: {v:?}"),
+        }
+    }
+
+    pub fn calls(&self, name: &str) -> &[Call] {
+        match self.expect(name) {
+            Val::Calls(c) => c,
+            v => panic!("property `{name}` is not a call list: {v:?}"),
         }
     }
 

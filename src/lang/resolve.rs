@@ -11,6 +11,10 @@ use super::parse::{parse_file, parse_value};
 use super::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit};
 use super::source::{FileId, SourceMap, Span};
 
+/// The largest side of any raster a scene may ask for: 16384² f32 pixels is already 1 GiB
+/// per channel, and a typo should not be able to exhaust the machine's memory.
+const MAX_SIDE: f64 = 16384.0;
+
 /// Where scene text comes from. The compiler reads every file through one such door so
 /// that the caller can hash and record what was read (watch mode follows those files).
 pub trait Loader {
@@ -422,10 +426,10 @@ impl<'a> Checker<'a> {
             }
             (Ty::Bool, ValueKind::Bool(b)) => Some(Val::Bool(*b)),
             (Ty::Size, ValueKind::Size { w, h, .. }) => {
-                let ok = |x: f64| x.fract() == 0.0 && (1.0..=65536.0).contains(&x);
+                let ok = |x: f64| x.fract() == 0.0 && (1.0..=MAX_SIDE).contains(&x);
                 if !ok(*w) || !ok(*h) {
                     self.errors.push(
-                        Diagnostic::error("sizes are whole numbers of pixels from 1 to 65536")
+                        Diagnostic::error(format!("sizes are whole numbers of pixels from 1 to {MAX_SIDE}"))
                             .with_code("tessera::range")
                             .with_label(v.span, "invalid size"),
                     );
@@ -497,6 +501,23 @@ impl<'a> Checker<'a> {
                 self.reference(name, v.span, refs).map(Val::Ref)
             }
             (Ty::Source { calls, .. }, ValueKind::Call { name, args }) => self.call(calls, name, args, v.span, dir),
+            (Ty::Calls(calls), ValueKind::Vector(items)) => {
+                let mut out = Vec::with_capacity(items.len());
+                let mut ok = true;
+                for it in items {
+                    match &it.kind {
+                        ValueKind::Call { name, args } => match self.call(calls, name, args, it.span, dir) {
+                            Some(Val::Call(c)) => out.push(c),
+                            _ => ok = false,
+                        },
+                        _ => {
+                            self.mismatch(it, &Ty::Source { calls, refs: &[] });
+                            ok = false;
+                        }
+                    }
+                }
+                ok.then_some(Val::Calls(out))
+            }
             (Ty::Block(specs), ValueKind::Block(b)) => {
                 Some(Val::Block(self.check_block(b, specs, dir, v.span, "block")))
             }
@@ -695,7 +716,7 @@ impl<'a> Checker<'a> {
         if !ok || self.errors.len() > before {
             return None;
         }
-        Some(Val::Call(Call { name: spec.name.to_string(), args: props }))
+        Some(Val::Call(Call { name: spec.name.to_string(), args: props, span: Some(span) }))
     }
 
     fn check_cycles(&self, errors: &mut Vec<Diagnostic>) {

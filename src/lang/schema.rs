@@ -83,7 +83,7 @@ pub enum Ty {
     Number(Unit, Range),
     Int(i64, i64),
     Bool,
-    /// `W x H`, both positive integers.
+    /// `W x H`, whole pixels from 1 to 16384.
     Size,
     /// `[x, y]`.
     Vec2(Unit),
@@ -106,6 +106,8 @@ pub enum Ty {
     },
     /// A nested property block.
     Block(&'static [PropSpec]),
+    /// A vector of constructor calls, e.g. a list of edits `[insert(...), delete(...)]`.
+    Calls(&'static [CallSpec]),
 }
 
 impl Ty {
@@ -131,6 +133,10 @@ impl Ty {
                 format!("one of {}", alts.join(", "))
             }
             Ty::Block(_) => "a block `{ ... }`".into(),
+            Ty::Calls(calls) => format!(
+                "a vector of {}",
+                calls.iter().map(|c| format!("`{}(...)`", c.name)).collect::<Vec<_>>().join(", ")
+            ),
         }
     }
 }
@@ -180,7 +186,7 @@ fn explain_props(props: &[PropSpec], depth: usize, out: &mut String) {
         out.push_str(&format!("{pad}{:<12} {}\n", "", p.doc));
         match &p.ty {
             Ty::Block(inner) => explain_props(inner, depth + 1, out),
-            Ty::Source { calls, .. } => {
+            Ty::Source { calls, .. } | Ty::Calls(calls) => {
                 for c in calls.iter() {
                     let args: Vec<&str> = c.args.iter().map(|a| a.name).collect();
                     out.push_str(&format!("{pad}  {}({}): {}\n", c.name, args.join(", "), c.doc));
@@ -203,7 +209,7 @@ pub fn markdown(spec: &KindSpec) -> String {
     out.push_str(&format!("### `{}{} {{ … }}`\n\n{}\n\n", spec.name, name_hint, spec.doc));
     markdown_props(spec.props, &mut out);
     for p in spec.props {
-        if let Ty::Source { calls, .. } = &p.ty {
+        if let Ty::Source { calls, .. } | Ty::Calls(calls) = &p.ty {
             out.push_str(&format!("\nConstructors for `{}`:\n\n", p.name));
             for c in calls.iter() {
                 let args: Vec<&str> = c.args.iter().map(|a| a.name).collect();
