@@ -8,3 +8,6 @@ mod diff;
 
 pub use compare::{compare, Comparison, Tolerance};
 pub use diff::diff_image;
+
+mod text;
+pub use text::{compare_text, TextComparison};

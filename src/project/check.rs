@@ -9,6 +9,9 @@ use crate::golden::{self, Tolerance};
 use crate::graph;
 use crate::raster;
 
+/// Default tolerance on numbers in text outputs (JSON, SVG), which are written rounded to 1e-6.
+const TEXT_TOLERANCE: f64 = 2e-6;
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CheckStatus {
@@ -55,6 +58,23 @@ impl Project {
                 rows.push(row);
                 continue;
             };
+            if o.format.is_text() {
+                // Numbers in meshes and reports: rounded to 1e-6 when written.
+                let tol = o.tolerance.unwrap_or(TEXT_TOLERANCE);
+                let cmp = golden::compare_text(
+                    &String::from_utf8_lossy(&bytes.0),
+                    &String::from_utf8_lossy(&golden_bytes),
+                    tol,
+                );
+                row.tolerance = tol;
+                row.max_abs = cmp.max_abs as f32;
+                row.failing_pixels = cmp.failing_numbers;
+                row.total_pixels = cmp.numbers;
+                row.note = cmp.mismatch;
+                row.status = if cmp.pass { CheckStatus::Pass } else { CheckStatus::Fail };
+                rows.push(row);
+                continue;
+            }
             let actual = raster::io::decode(&bytes.0);
             let expected = raster::io::decode(&golden_bytes);
             let (actual, expected) = match (actual, expected) {

@@ -46,6 +46,15 @@ pub enum OutputFormat {
     Png8,
     Png16,
     Exr,
+    Json,
+    Svg,
+}
+
+impl OutputFormat {
+    /// Text formats are compared number by number, not pixel by pixel.
+    pub fn is_text(self) -> bool {
+        matches!(self, OutputFormat::Json | OutputFormat::Svg)
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -80,6 +89,8 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         ("auto" | "png8", "png") => OutputFormat::Png8,
         ("png16", "png") => OutputFormat::Png16,
         ("auto" | "exr", "exr") => OutputFormat::Exr,
+        ("auto", "json") => OutputFormat::Json,
+        ("auto", "svg") => OutputFormat::Svg,
         (f, e) => {
             let span = d.props.span("format").unwrap_or(d.name_span);
             return Err(Diagnostic::error(if f == "auto" {
@@ -89,7 +100,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             })
             .with_code("tessera::output_format")
             .with_label(span, "here")
-            .with_help("outputs are `.png` (8- or 16-bit) or `.exr` files"));
+            .with_help("outputs are `.png` (8- or 16-bit), `.exr`, `.json` or `.svg` files"));
         }
     };
     if d.name.contains("..") || std::path::Path::new(&d.name).is_absolute() {
@@ -99,6 +110,11 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     }
     let from = d.props.reference("from").expect("required");
     let src = p.decl(from);
+    if format.is_text() {
+        return Err(Diagnostic::error(format!("a {} is written as an image, not as `.{ext}`", src.kind))
+            .with_code("tessera::output_format")
+            .with_label(d.name_span, "use `.png` or `.exr`"));
+    }
     let view = match src.kind {
         "sample" => View::Sample {
             color: match src.props.enumeration("color") {
@@ -134,6 +150,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             OutputFormat::Png8 => raster::io::encode_png(&img, 8),
             OutputFormat::Png16 => raster::io::encode_png(&img, 16),
             OutputFormat::Exr => raster::io::encode_exr(&img),
+            OutputFormat::Json | OutputFormat::Svg => unreachable!("rejected when planned"),
         }
         .map_err(|e| StageError::new(format!("cannot encode the output: {e}")))?;
         Ok(Bytes(bytes))
