@@ -1,5 +1,16 @@
 //! Structure from example (Frasson ch. 3; digest 004 §2): analysis of a drawn subdivision,
 //! anisotropic Lloyd synthesis steered by control maps, polygonisation, shape optimisation.
+pub mod associate;
+pub mod ellipse;
+pub mod faces;
+pub mod format;
+pub mod labels_import;
 pub mod render;
+pub mod standins;
+pub mod stats;
+pub mod turning;
 mod types;
+pub mod validate;
+
+pub use format::{parse_structure, to_json, StructureError};
 pub use types::*;

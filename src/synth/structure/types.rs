@@ -50,7 +50,8 @@ impl Labels {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Mesh {
     pub vertices: Vec<Point>,
-    /// Each region's boundary as a cycle of vertex indices, counter-clockwise on screen
-    /// (positive signed area with y down).
+    /// Each region's boundary as a cycle of vertex indices with positive shoelace area on
+    /// the raw coordinates: counter-clockwise in a y-up frame (digest 004 §1.2), which looks
+    /// clockwise on screen because y points down.
     pub regions: Vec<Vec<usize>>,
 }

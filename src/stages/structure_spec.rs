@@ -1,0 +1,182 @@
+//! The schema of `structure` declarations (digest 004 §10.1).
+
+use crate::lang::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, ANY, POSITIVE, UNIT};
+
+const fn p(name: &'static str, ty: Ty, default: Default, doc: &'static str) -> PropSpec {
+    PropSpec { name, ty, default, doc }
+}
+
+static LLOYD: &[PropSpec] = &[
+    p("iterations", Ty::Int(0, 10_000), Default::Text("50"), "Most Lloyd iterations."),
+    p(
+        "tolerance",
+        Ty::Number(Unit::Length, POSITIVE),
+        Default::Text("0.25 px"),
+        "Stop when the mean generator displacement of an iteration falls below this.",
+    ),
+    p(
+        "rotate",
+        Ty::Bool,
+        Default::Text("false"),
+        "Also turn each ellipse to its region's fitted angle (axis lengths never change).",
+    ),
+    p(
+        "resolution",
+        Ty::Number(Unit::Fraction, Range { min: 0.05, max: 1.0 }),
+        Default::Text("1"),
+        "Run the iterations on a raster this fraction of the target's size; the final labels are at full size.",
+    ),
+];
+
+static POLYGONIZE: &[PropSpec] = &[
+    p(
+        "tolerance",
+        Ty::Number(Unit::Length, POSITIVE),
+        Default::Text("1 px"),
+        "Douglas–Peucker tolerance for the boundary chains.",
+    ),
+    p("min_edge", Ty::Number(Unit::Length, POSITIVE), Default::Text("2 px"), "Shorter edges are collapsed."),
+    p(
+        "straight",
+        Ty::Number(Unit::Angle, Range { min: 0.0, max: std::f64::consts::PI }),
+        Default::Text("5 deg"),
+        "Valency-2 vertices turning less than this are dropped.",
+    ),
+];
+
+static SHAPES: &[PropSpec] = &[
+    p("enabled", Ty::Bool, Default::Text("true"), "Run stage 2: move vertices towards the closest original shapes."),
+    p("iterations", Ty::Int(0, 10_000), Default::Text("50"), "Most optimisation sweeps."),
+    p("step", Ty::Number(Unit::Fraction, UNIT), Default::Text("20%"), "Fraction of the mean displacement applied per sweep."),
+    p(
+        "area_tolerance",
+        Ty::Number(Unit::Fraction, UNIT),
+        Default::Text("20%"),
+        "An associated original's area must be within this of its region's (widened in 10 % steps to 50 % if needed).",
+    ),
+    p("allow_rotation", Ty::Bool, Default::Text("true"), "Rotate originals to fit; `false` keeps their orientation."),
+    p("reassociate", Ty::Int(1, 10_000), Default::Text("10"), "Recompute the associations every this many sweeps."),
+    p("tolerance", Ty::Number(Unit::Plain, ANY), Default::Text("0.05"), "Stop when the mean turning distance falls below this."),
+];
+
+static EDITS: &[CallSpec] = &[
+    CallSpec {
+        name: "insert",
+        doc: "Adds a region: an ellipse at a position (Lloyd then makes room for it).",
+        args: &[
+            p("at", Ty::Vec2(Unit::Length), Default::Required, "Centre in pixels."),
+            p("a", Ty::Number(Unit::Length, POSITIVE), Default::Required, "Semi-major axis."),
+            p("b", Ty::Number(Unit::Length, POSITIVE), Default::Required, "Semi-minor axis."),
+            p("angle", Ty::Number(Unit::Angle, ANY), Default::Text("0 deg"), "Major-axis angle."),
+        ],
+    },
+    CallSpec {
+        name: "delete",
+        doc: "Removes a region, by id or the one nearest a point.",
+        args: &[
+            p("id", Ty::Int(0, 1 << 31), Default::Absent, "Region id (as in the label outputs)."),
+            p("at", Ty::Vec2(Unit::Length), Default::Absent, "Remove the generator nearest this point."),
+        ],
+    },
+    CallSpec {
+        name: "freeze",
+        doc: "Keeps a region's generator where it is during Lloyd.",
+        args: &[p("id", Ty::Int(0, 1 << 31), Default::Required, "Region id.")],
+    },
+    CallSpec {
+        name: "move",
+        doc: "Moves a region (delete + insert with the same ellipse).",
+        args: &[
+            p("id", Ty::Int(0, 1 << 31), Default::Required, "Region id."),
+            p("to", Ty::Vec2(Unit::Length), Default::Required, "New centre in pixels."),
+        ],
+    },
+    CallSpec {
+        name: "set",
+        doc: "Changes a region's ellipse.",
+        args: &[
+            p("id", Ty::Int(0, 1 << 31), Default::Required, "Region id."),
+            p("a", Ty::Number(Unit::Length, POSITIVE), Default::Absent, "New semi-major axis."),
+            p("b", Ty::Number(Unit::Length, POSITIVE), Default::Absent, "New semi-minor axis."),
+            p("angle", Ty::Number(Unit::Angle, ANY), Default::Absent, "New angle."),
+        ],
+    },
+];
+
+pub static SPEC: KindSpec = KindSpec {
+    name: "structure",
+    doc: "A synthesised planar subdivision (stones, cells, scales) grown from a sample's drawn structure onto a surface, steered by control maps.",
+    naming: Naming::Ident,
+    props: &[
+        p("from", Ty::Ref(&["sample"]), Default::Required, "The sample whose `structure` file is analysed."),
+        p("on", Ty::Ref(&["surface"]), Default::Required, "The target surface; its occupancy map forbids regions."),
+        p(
+            "mode",
+            Ty::Enum(&["statistical", "trivial"]),
+            Default::Text("statistical"),
+            "`statistical`: sample new ellipses from the statistics; `trivial`: perturb and swap the sample's own regions.",
+        ),
+        p("scale", Ty::Number(Unit::Plain, POSITIVE), Default::Text("1"), "Linear size of regions relative to the sample."),
+        p(
+            "centers",
+            Ty::Enum(&["uniform", "density", "histogram"]),
+            Default::Text("uniform"),
+            "Where initial generators go: uniform over allowed pixels, weighted by the density map, or from the sample's centre histogram.",
+        ),
+        p(
+            "shape_sampling",
+            Ty::Enum(&["independent", "joint"]),
+            Default::Text("independent"),
+            "`independent`: axes and angle from separate histograms (the thesis); `joint`: whole (a, b, θ) triples with jitter.",
+        ),
+        p("perturb", Ty::Number(Unit::Length, ANY), Default::Text("0 px"), "Trivial mode: noise on generator centres (std. dev.)."),
+        p("swaps", Ty::Number(Unit::Fraction, UNIT), Default::Text("0%"), "Trivial mode: fraction of regions swapped at random."),
+        p("density", Ty::Ref(&["map"]), Default::Absent, "Density map: dark pixels weigh more in centroids."),
+        p("density_eps", Ty::Number(Unit::Plain, UNIT), Default::Text("0.01"), "Smallest density weight."),
+        p("density_gamma", Ty::Number(Unit::Plain, POSITIVE), Default::Text("1"), "Exponent of the density weight."),
+        p("size", Ty::Ref(&["map"]), Default::Absent, "Size map: darker means smaller regions."),
+        p("size_min", Ty::Number(Unit::Fraction, UNIT), Default::Text("0.3"), "Size factor at black in the size map."),
+        p("orientation", Ty::Ref(&["map"]), Default::Absent, "Orientation field (2-channel map) turning the ellipses."),
+        p(
+            "orientation_mode",
+            Ty::Enum(&["region", "center"]),
+            Default::Text("region"),
+            "Angle from the axial mean over the region, or sampled at its centre.",
+        ),
+        p(
+            "metric",
+            Ty::Enum(&["elliptic", "manhattan", "chebyshev"]),
+            Default::Text("elliptic"),
+            "Distance used by the Voronoi step.",
+        ),
+        p(
+            "metric_map",
+            Ty::Ref(&["map"]),
+            Default::Absent,
+            "Per-pixel metric: values below 1/3 elliptic, below 2/3 Manhattan, else Chebyshev.",
+        ),
+        p(
+            "occupancy_remove",
+            Ty::Enum(&["center", "any_overlap"]),
+            Default::Text("center"),
+            "Which sampled ellipses the occupancy map removes.",
+        ),
+        p(
+            "ellipse_fit",
+            Ty::Enum(&["polygon", "pixels"]),
+            Default::Text("polygon"),
+            "Fit ellipses to the sample's regions by polygon moments or by their pixels.",
+        ),
+        p(
+            "exclude_border_regions",
+            Ty::Bool,
+            Default::Text("true"),
+            "Leave regions cut by the sample's border out of the statistics.",
+        ),
+        p("lloyd", Ty::Block(LLOYD), Default::Text("{}"), "Anisotropic Lloyd relaxation."),
+        p("polygonize", Ty::Block(POLYGONIZE), Default::Text("{}"), "Label raster → polygon mesh."),
+        p("shapes", Ty::Block(SHAPES), Default::Text("{}"), "Stage 2: shape optimisation."),
+        p("edits", Ty::Calls(EDITS), Default::Text("[]"), "Edits applied to the generators before Lloyd runs again."),
+        p("seed", Ty::Int(0, 1 << 53), Default::Absent, "An explicit seed instead of the one derived from the scene's."),
+    ],
+};

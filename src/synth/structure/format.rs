@@ -1,0 +1,358 @@
+//! The structure file format (digest 004 §2.1) and the errors a structure can have.
+//!
+//! A structure is a JSON object in pixel units with `y` pointing down:
+//!
+//! ```json
+//! {
+//!   "units": "px",
+//!   "size": [640, 480],
+//!   "vertices": [[10.0, 12.5], [80, 12.5], [80, 60]],
+//!   "edges": [[0, 1], [1, 2], [2, 0]]
+//! }
+//! ```
+//!
+//! * `units` is optional; when present it must be `"px"`.
+//! * `size` is optional (`[width, height]`, both positive); it is the sample's extent and is
+//!   used to flag regions that touch the sample border.
+//! * `vertices` are `[x, y]` pairs; `edges` are pairs of vertex indices (0-based).
+//! * Unknown keys are rejected, so a typo (`"edge"`) is reported instead of ignored.
+//!
+//! [`parse_structure`] parses and validates: indices in range, no self-loops, no two
+//! vertices closer than [`VERTEX_EPS`], no crossing or overlapping edges, and at least one
+//! closed region once dangling edges are pruned. Duplicate edges and dangling edges are not
+//! errors; [`super::validate::clean`] removes them and reports what it removed.
+
+use super::types::{Point, Subdivision};
+use super::validate;
+use serde::Deserialize;
+use std::fmt;
+use std::fmt::Write as _;
+
+/// Two vertices closer than this (pixel units) are duplicates, and a vertex closer than
+/// this to an edge it is not an end of touches that edge.
+pub const VERTEX_EPS: f64 = 1e-9;
+
+/// Everything that can be wrong with a structure. Messages name the offending indices
+/// (0-based) and positions so a user can find them in the file.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StructureError {
+    /// The text is not valid JSON or does not have the documented shape.
+    Json { line: usize, column: usize, message: String },
+    /// A field has a valid JSON type but an invalid value (`units`, `size`, a non-finite
+    /// coordinate).
+    InvalidField { field: String, message: String },
+    /// No vertices or no edges.
+    Empty { vertices: usize, edges: usize },
+    /// Edge `edge` refers to vertex `index`, but only `vertex_count` vertices exist.
+    EdgeIndexOutOfRange { edge: usize, index: usize, vertex_count: usize },
+    /// Edge `edge` joins vertex `vertex` to itself.
+    SelfLoop { edge: usize, vertex: usize },
+    /// Vertices `first < second` coincide (closer than [`VERTEX_EPS`]).
+    DuplicateVertices { first: usize, second: usize, position: Point },
+    /// Edges `first < second` cross, overlap or touch at `point` (a vertex lying on an edge
+    /// it does not end at counts as touching).
+    CrossingEdges { first: usize, second: usize, point: Point },
+    /// Every edge is dangling (or the input is otherwise degenerate): no closed region is
+    /// left once dangling edges are pruned.
+    AllDegenerate { edges: usize, pruned: usize },
+}
+
+impl fmt::Display for StructureError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StructureError::Json { line, column, message } => {
+                write!(f, "malformed structure JSON at line {line}, column {column}: {message}")
+            }
+            StructureError::InvalidField { field, message } => write!(f, "invalid `{field}`: {message}"),
+            StructureError::Empty { vertices, edges } => write!(
+                f,
+                "empty structure: {vertices} vertices and {edges} edges (a structure needs at least 3 vertices \
+                 and 3 edges forming a closed region)"
+            ),
+            StructureError::EdgeIndexOutOfRange { edge, index, vertex_count } => write!(
+                f,
+                "edge {edge} refers to vertex {index}, but there are only {vertex_count} vertices (valid indices \
+                 are 0..={})",
+                vertex_count.saturating_sub(1)
+            ),
+            StructureError::SelfLoop { edge, vertex } => {
+                write!(f, "edge {edge} is a self-loop: both ends are vertex {vertex}")
+            }
+            StructureError::DuplicateVertices { first, second, position } => write!(
+                f,
+                "vertices {first} and {second} coincide at ({}, {}); merge them and renumber the edges",
+                fmt_coord(position[0]),
+                fmt_coord(position[1])
+            ),
+            StructureError::CrossingEdges { first, second, point } => write!(
+                f,
+                "edges {first} and {second} cross at ({}, {}); split them with a shared vertex at the crossing",
+                fmt_coord(point[0]),
+                fmt_coord(point[1])
+            ),
+            StructureError::AllDegenerate { edges, pruned } => write!(
+                f,
+                "degenerate structure: no closed region; all {pruned} of {edges} edges are dangling (pruned) or \
+                 the edges do not enclose any area"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for StructureError {}
+
+fn fmt_coord(v: f64) -> String {
+    let r = round_to(v, 1e-6);
+    format!("{}", if r == 0.0 { 0.0 } else { r })
+}
+
+/// A parsed structure file: the subdivision and the optional sample size.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StructureFile {
+    pub size: Option<[f64; 2]>,
+    pub subdivision: Subdivision,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawStructure {
+    #[serde(default)]
+    units: Option<String>,
+    #[serde(default)]
+    size: Option<[f64; 2]>,
+    vertices: Vec<[f64; 2]>,
+    edges: Vec<[usize; 2]>,
+}
+
+/// Parses and validates a structure (see the module documentation for the format and the
+/// checks). The sample size, if given, is dropped; use [`parse_structure_file`] to keep it.
+pub fn parse_structure(text: &str) -> Result<Subdivision, StructureError> {
+    parse_structure_file(text).map(|f| f.subdivision)
+}
+
+/// Like [`parse_structure`] but also returns the optional `size`.
+pub fn parse_structure_file(text: &str) -> Result<StructureFile, StructureError> {
+    let raw: RawStructure = serde_json::from_str(text).map_err(|e| StructureError::Json {
+        line: e.line(),
+        column: e.column(),
+        message: strip_position(&e.to_string()),
+    })?;
+    if let Some(units) = &raw.units {
+        if units != "px" {
+            return Err(StructureError::InvalidField {
+                field: "units".into(),
+                message: format!("unsupported unit {units:?}; structures are in pixels (\"px\")"),
+            });
+        }
+    }
+    if let Some([w, h]) = raw.size {
+        if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0) {
+            return Err(StructureError::InvalidField {
+                field: "size".into(),
+                message: format!("size must be two positive numbers [width, height], got [{w}, {h}]"),
+            });
+        }
+    }
+    for (i, v) in raw.vertices.iter().enumerate() {
+        if !(v[0].is_finite() && v[1].is_finite()) {
+            return Err(StructureError::InvalidField {
+                field: "vertices".into(),
+                message: format!("vertex {i} has a non-finite coordinate"),
+            });
+        }
+    }
+    let subdivision = Subdivision { vertices: raw.vertices, edges: raw.edges };
+    validate::validate(&subdivision)?;
+    Ok(StructureFile { size: raw.size, subdivision })
+}
+
+/// serde_json appends " at line L column C" to its messages; the position is reported in
+/// separate fields.
+fn strip_position(msg: &str) -> String {
+    match msg.rfind(" at line ") {
+        Some(i) => msg[..i].to_string(),
+        None => msg.to_string(),
+    }
+}
+
+/// Rounds `v` to a multiple of `step` (used for stable output bytes).
+pub(crate) fn round_to(v: f64, step: f64) -> f64 {
+    let r = (v / step).round() * step;
+    // Re-round through the decimal grid so that 0.30000000000000004 prints as 0.3.
+    let digits = (-step.log10()).round().max(0.0) as i32;
+    let s = 10f64.powi(digits);
+    let r = (r * s).round() / s;
+    if r == 0.0 {
+        0.0
+    } else {
+        r
+    }
+}
+
+fn push_num(out: &mut String, v: f64) {
+    let r = round_to(v, 1e-6);
+    let _ = write!(out, "{r}");
+}
+
+/// Serialises a subdivision in the documented format. The size is the bounding box of the
+/// vertices rounded up to whole pixels (see [`to_json_sized`] to give it explicitly).
+pub fn to_json(sub: &Subdivision) -> String {
+    let mut w: f64 = 0.0;
+    let mut h: f64 = 0.0;
+    for v in &sub.vertices {
+        w = w.max(v[0]);
+        h = h.max(v[1]);
+    }
+    to_json_sized(sub, [w.ceil().max(1.0), h.ceil().max(1.0)])
+}
+
+/// Serialises a subdivision with an explicit sample size. Coordinates are rounded to 1e-6
+/// px; the bytes depend only on the data (one vertex or edge per line, `\n` line ends).
+pub fn to_json_sized(sub: &Subdivision, size: [f64; 2]) -> String {
+    let mut out = String::with_capacity(32 * (sub.vertices.len() + sub.edges.len()) + 64);
+    out.push_str("{\n  \"units\": \"px\",\n  \"size\": [");
+    push_num(&mut out, size[0]);
+    out.push_str(", ");
+    push_num(&mut out, size[1]);
+    out.push_str("],\n  \"vertices\": [");
+    for (i, v) in sub.vertices.iter().enumerate() {
+        out.push_str(if i == 0 { "\n    [" } else { ",\n    [" });
+        push_num(&mut out, v[0]);
+        out.push_str(", ");
+        push_num(&mut out, v[1]);
+        out.push(']');
+    }
+    out.push_str(if sub.vertices.is_empty() { "],\n" } else { "\n  ],\n" });
+    out.push_str("  \"edges\": [");
+    for (i, e) in sub.edges.iter().enumerate() {
+        out.push_str(if i == 0 { "\n    [" } else { ",\n    [" });
+        let _ = write!(out, "{}, {}]", e[0], e[1]);
+    }
+    out.push_str(if sub.edges.is_empty() { "]\n}\n" } else { "\n  ]\n}\n" });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SQUARE: &str = r#"{ "units": "px", "size": [10, 10],
+        "vertices": [[0,0],[4,0],[4,4],[0,4]], "edges": [[0,1],[1,2],[2,3],[3,0]] }"#;
+
+    #[test]
+    fn parses_a_square() {
+        let f = parse_structure_file(SQUARE).unwrap();
+        assert_eq!(f.size, Some([10.0, 10.0]));
+        assert_eq!(f.subdivision.vertices.len(), 4);
+        assert_eq!(f.subdivision.edges, vec![[0, 1], [1, 2], [2, 3], [3, 0]]);
+    }
+
+    #[test]
+    fn roundtrip_is_stable() {
+        let sub = Subdivision {
+            vertices: vec![[0.1 + 0.2, 0.0], [10.123_456_789, -0.0], [5.0, 7.000_000_4]],
+            edges: vec![[0, 1], [1, 2], [2, 0]],
+        };
+        let text = to_json(&sub);
+        assert_eq!(
+            text,
+            "{\n  \"units\": \"px\",\n  \"size\": [11, 8],\n  \"vertices\": [\n    [0.3, 0],\n    [10.123457, 0],\n    \
+             [5, 7]\n  ],\n  \"edges\": [\n    [0, 1],\n    [1, 2],\n    [2, 0]\n  ]\n}\n"
+        );
+        // Re-parsing and writing with the parsed size gives the same bytes.
+        let back = parse_structure_file(&text).unwrap();
+        assert_eq!(to_json_sized(&back.subdivision, back.size.unwrap()), text);
+    }
+
+    #[test]
+    fn malformed_json_reports_line_and_column() {
+        let err = parse_structure("{\n  \"vertices\": [[0,0],\n  [1,]\n}").unwrap_err();
+        match &err {
+            StructureError::Json { line, column, .. } => {
+                assert_eq!(*line, 3);
+                assert!(*column > 0);
+            }
+            e => panic!("wrong error {e:?}"),
+        }
+        assert!(err.to_string().contains("line 3"), "{err}");
+        // Wrong shape and unknown keys are also JSON errors with a position.
+        let err = parse_structure(r#"{"vertices": [[0,0]], "edge": []}"#).unwrap_err();
+        assert!(matches!(err, StructureError::Json { .. }), "{err:?}");
+        assert!(err.to_string().contains("edge"), "{err}");
+        let err = parse_structure(r#"{"vertices": [[0,0,1]], "edges": []}"#).unwrap_err();
+        assert!(matches!(err, StructureError::Json { .. }), "{err:?}");
+    }
+
+    #[test]
+    fn bad_fields() {
+        let err = parse_structure(r#"{"units": "mm", "vertices": [], "edges": []}"#).unwrap_err();
+        assert!(matches!(&err, StructureError::InvalidField { field, .. } if field == "units"), "{err:?}");
+        let err = parse_structure(r#"{"size": [0, 5], "vertices": [], "edges": []}"#).unwrap_err();
+        assert!(matches!(&err, StructureError::InvalidField { field, .. } if field == "size"), "{err:?}");
+    }
+
+    #[test]
+    fn empty_input() {
+        let err = parse_structure(r#"{"vertices": [], "edges": []}"#).unwrap_err();
+        assert_eq!(err, StructureError::Empty { vertices: 0, edges: 0 });
+        let err = parse_structure(r#"{"vertices": [[0,0],[1,1]], "edges": []}"#).unwrap_err();
+        assert_eq!(err, StructureError::Empty { vertices: 2, edges: 0 });
+        assert!(err.to_string().contains("empty"));
+    }
+
+    #[test]
+    fn edge_index_out_of_range() {
+        let err = parse_structure(r#"{"vertices": [[0,0],[1,0],[0,1]], "edges": [[0,1],[1,2],[2,7]]}"#).unwrap_err();
+        assert_eq!(err, StructureError::EdgeIndexOutOfRange { edge: 2, index: 7, vertex_count: 3 });
+        let msg = err.to_string();
+        assert!(msg.contains("edge 2") && msg.contains("vertex 7") && msg.contains("0..=2"), "{msg}");
+    }
+
+    #[test]
+    fn self_loop() {
+        let err = parse_structure(r#"{"vertices": [[0,0],[1,0],[0,1]], "edges": [[0,1],[1,1],[2,0]]}"#).unwrap_err();
+        assert_eq!(err, StructureError::SelfLoop { edge: 1, vertex: 1 });
+        assert!(err.to_string().contains("edge 1"));
+    }
+
+    #[test]
+    fn duplicate_vertices() {
+        let err = parse_structure(
+            r#"{"vertices": [[0,0],[1,0],[0,1],[1,0.0000000000001]], "edges": [[0,1],[1,2],[2,0],[2,3]]}"#,
+        )
+        .unwrap_err();
+        assert!(matches!(err, StructureError::DuplicateVertices { first: 1, second: 3, .. }), "{err:?}");
+        let msg = err.to_string();
+        assert!(msg.contains("vertices 1 and 3") && msg.contains("(1, 0)"), "{msg}");
+    }
+
+    #[test]
+    fn crossing_edges() {
+        // A bow tie: edges 0 (0-2) and 2 (1-3) cross at (1, 1).
+        let err = parse_structure(r#"{"vertices": [[0,0],[2,0],[2,2],[0,2]], "edges": [[0,2],[2,1],[1,3],[3,0]]}"#)
+            .unwrap_err();
+        assert_eq!(err, StructureError::CrossingEdges { first: 0, second: 2, point: [1.0, 1.0] });
+        let msg = err.to_string();
+        assert!(msg.contains("edges 0 and 2") && msg.contains("(1, 1)"), "{msg}");
+        // A vertex lying on another edge (unsplit T-junction) is reported too.
+        let err = parse_structure(
+            r#"{"vertices": [[0,0],[4,0],[4,4],[0,4],[2,0],[2,4]],
+                "edges": [[0,1],[1,2],[2,3],[3,0],[4,5]]}"#,
+        )
+        .unwrap_err();
+        assert_eq!(err, StructureError::CrossingEdges { first: 0, second: 4, point: [2.0, 0.0] });
+        // Collinear overlap of two edges sharing a vertex.
+        let err = parse_structure(r#"{"vertices": [[0,0],[4,0],[4,4],[2,0]], "edges": [[0,1],[1,2],[2,0],[0,3]]}"#)
+            .unwrap_err();
+        assert!(matches!(err, StructureError::CrossingEdges { first: 0, second: 3, .. }), "{err:?}");
+    }
+
+    #[test]
+    fn all_degenerate() {
+        // A tree (a path and a branch): every edge is dangling.
+        let err =
+            parse_structure(r#"{"vertices": [[0,0],[1,0],[2,0],[1,1]], "edges": [[0,1],[1,2],[1,3]]}"#).unwrap_err();
+        assert_eq!(err, StructureError::AllDegenerate { edges: 3, pruned: 3 });
+        assert!(err.to_string().contains("no closed region"));
+    }
+}
