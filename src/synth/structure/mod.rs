@@ -6,6 +6,7 @@ pub mod faces;
 pub mod format;
 pub mod labels_import;
 pub mod render;
+pub mod sample;
 pub mod standins;
 pub mod stats;
 pub mod turning;

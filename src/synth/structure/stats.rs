@@ -430,12 +430,47 @@ impl Variable2 {
 pub struct StatsConfig {
     /// Skip border regions in the region statistics (V30).
     pub exclude_border_regions: bool,
+    /// How region ellipses are fitted (F2): analytic polygon moments, or the moments of the
+    /// pixel centres inside the region.
+    #[serde(default)]
+    pub ellipse_fit: EllipseFit,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EllipseFit {
+    #[default]
+    Polygon,
+    Pixels,
 }
 
 impl Default for StatsConfig {
     fn default() -> Self {
-        StatsConfig { exclude_border_regions: true }
+        StatsConfig { exclude_border_regions: true, ellipse_fit: EllipseFit::Polygon }
     }
+}
+
+/// Moments of the pixel centres inside `rings` (outer boundary and holes, even-odd).
+fn pixel_moments(rings: &[Vec<Point>]) -> Option<Moments> {
+    let outer = rings.first()?;
+    let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+    for p in outer {
+        x0 = x0.min(p[0]);
+        y0 = y0.min(p[1]);
+        x1 = x1.max(p[0]);
+        y1 = y1.max(p[1]);
+    }
+    let mut pts = Vec::new();
+    for j in (y0.floor().max(0.0) as i64)..=(y1.ceil() as i64) {
+        for i in (x0.floor().max(0.0) as i64)..=(x1.ceil() as i64) {
+            let c = [i as f64 + 0.5, j as f64 + 0.5];
+            let inside = rings.iter().filter(|r| faces::point_in_polygon(c, r)).count() % 2 == 1;
+            if inside {
+                pts.push(c);
+            }
+        }
+    }
+    ellipse::point_moments(&pts, None)
 }
 
 /// Per-region record kept in the model (all regions, border ones flagged).
@@ -592,7 +627,11 @@ pub fn collect_stats(sub: &Subdivision, faces: &Faces, config: &StatsConfig) -> 
     let mut used = 0;
     for (r, reg) in faces.regions.iter().enumerate() {
         let rings = faces.rings(sub, r);
-        let ell = ellipse::rings_moments(&rings).and_then(|m: Moments| ellipse::ellipse_from_cov(m.centroid, m.cov));
+        let moments = match config.ellipse_fit {
+            EllipseFit::Polygon => ellipse::rings_moments(&rings),
+            EllipseFit::Pixels => pixel_moments(&rings),
+        };
+        let ell = moments.and_then(|m: Moments| ellipse::ellipse_from_cov(m.centroid, m.cov));
         let border = reg.is_border();
         regions.push(RegionStat { area: reg.area, edges: reg.boundary.len(), border, ellipse: ell });
         if config.exclude_border_regions && border {
