@@ -7,6 +7,8 @@ mod map;
 mod output;
 mod sample;
 mod scene;
+mod structure;
+mod structure_spec;
 mod surface;
 
 use std::collections::HashMap;
@@ -21,7 +23,7 @@ use crate::lang::{Decl, Diagnostic, KindSpec, Scene};
 
 /// Every declaration kind the language accepts.
 pub fn registry() -> Vec<&'static KindSpec> {
-    vec![&scene::SPEC, &sample::SPEC, &map::SPEC, &surface::SPEC, &output::SPEC]
+    vec![&scene::SPEC, &sample::SPEC, &map::SPEC, &surface::SPEC, &structure::SPEC, &output::SPEC]
 }
 
 /// Where to point when a node fails.
@@ -67,6 +69,8 @@ pub(crate) struct Planner<'a> {
     blame: Vec<Blame>,
     /// The node holding each declaration's result.
     results: HashMap<String, NodeId>,
+    /// Further named nodes of multi-stage declarations: (declaration, part) → node.
+    parts: HashMap<(String, &'static str), NodeId>,
     outputs: Vec<PlannedOutput>,
     decl_index: usize,
 }
@@ -83,6 +87,11 @@ impl Planner<'_> {
         let (files, spans): (Vec<PathBuf>, Vec<Span>) = files.into_iter().unzip();
         self.blame.push(Blame { decl: self.decl_index, span: decl.name_span, files: spans });
         self.graph.add(Node { label, stage: Box::new(stage), inputs, files, origin: self.decl_index })
+    }
+
+    /// A named part of a multi-stage declaration (e.g. a structure's `lloyd` result).
+    pub fn part(&self, name: &str, part: &'static str) -> Option<NodeId> {
+        self.parts.get(&(name.to_string(), part)).copied()
     }
 
     /// The node added last.
@@ -113,6 +122,7 @@ pub fn plan(scene: &Scene) -> Result<Plan, Vec<Diagnostic>> {
         graph: Graph::default(),
         blame: Vec::new(),
         results: HashMap::new(),
+        parts: HashMap::new(),
         outputs: Vec::new(),
         decl_index: 0,
     };
@@ -129,6 +139,7 @@ pub fn plan(scene: &Scene) -> Result<Plan, Vec<Diagnostic>> {
             "sample" => sample::plan(&mut p, d),
             "map" => map::plan(&mut p, d),
             "surface" => surface::plan(&mut p, d),
+            "structure" => structure::plan(&mut p, d),
             "output" => output::plan(&mut p, d),
             k => unreachable!("kind `{k}` is in the registry but has no planner"),
         };

@@ -3,7 +3,7 @@
 
 use super::{sample::transfer, Bytes, FnStage, Planner};
 use crate::graph::{NodeId, StageError};
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, UNIT};
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, POSITIVE, UNIT};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::{self, Image};
@@ -16,9 +16,21 @@ pub static SPEC: KindSpec = KindSpec {
     props: &[
         PropSpec {
             name: "from",
-            ty: Ty::Ref(&["map", "sample", "surface"]),
+            ty: Ty::Ref(&["map", "sample", "surface", "structure"]),
             default: Default::Required,
-            doc: "What to write. Maps are written as data; 2-channel orientation fields as RGB (x, y → R, G); samples in sRGB; surfaces as their occupancy.",
+            doc: "What to write. Maps are written as data; 2-channel orientation fields as RGB (x, y → R, G); samples in sRGB; surfaces as their occupancy; structures as `view` says.",
+        },
+        PropSpec {
+            name: "view",
+            ty: Ty::Enum(&["auto", "labels", "labels16", "edges", "ellipses", "distance", "closest", "mesh", "svg", "stats"]),
+            default: Default::Text("auto"),
+            doc: "For structures: `labels` (a colour per region), `labels16` (region ids in a 16-bit PNG), `edges`, `ellipses` (over the labels), `distance` (to each region's generator), `closest` (associated original shapes), `mesh` (JSON), `svg`, `stats` (JSON report against the sample). `auto`: `mesh` for .json, `svg` for .svg, `labels` for images.",
+        },
+        PropSpec {
+            name: "edge_width",
+            ty: Ty::Number(Unit::Length, POSITIVE),
+            default: Default::Text("1 px"),
+            doc: "Line width of `edges` and `svg` views.",
         },
         PropSpec {
             name: "format",
@@ -110,6 +122,24 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     }
     let from = d.props.reference("from").expect("required");
     let src = p.decl(from);
+    if src.kind == "structure" {
+        let view = d.props.enumeration("view").to_string();
+        let node = super::structure::plan_output(p, d, from, format, &view, d.props.num("edge_width"))?;
+        p.outputs.push(PlannedOutput {
+            name: d.name.clone(),
+            node,
+            format,
+            tolerance: d.props.opt_num("tolerance"),
+            outliers: d.props.num("outliers"),
+            span: d.name_span,
+        });
+        return Ok(node);
+    }
+    if d.props.enumeration("view") != "auto" {
+        return Err(Diagnostic::error(format!("`view` applies to structures, not to a {}", src.kind))
+            .with_code("tessera::output_view")
+            .with_label(d.props.span("view").unwrap_or(d.name_span), "remove this"));
+    }
     if format.is_text() {
         return Err(Diagnostic::error(format!("a {} is written as an image, not as `.{ext}`", src.kind))
             .with_code("tessera::output_format")

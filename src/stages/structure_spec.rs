@@ -47,7 +47,12 @@ static POLYGONIZE: &[PropSpec] = &[
 static SHAPES: &[PropSpec] = &[
     p("enabled", Ty::Bool, Default::Text("true"), "Run stage 2: move vertices towards the closest original shapes."),
     p("iterations", Ty::Int(0, 10_000), Default::Text("50"), "Most optimisation sweeps."),
-    p("step", Ty::Number(Unit::Fraction, UNIT), Default::Text("20%"), "Fraction of the mean displacement applied per sweep."),
+    p(
+        "step",
+        Ty::Number(Unit::Fraction, UNIT),
+        Default::Text("20%"),
+        "Fraction of the mean displacement applied per sweep.",
+    ),
     p(
         "area_tolerance",
         Ty::Number(Unit::Fraction, UNIT),
@@ -56,7 +61,12 @@ static SHAPES: &[PropSpec] = &[
     ),
     p("allow_rotation", Ty::Bool, Default::Text("true"), "Rotate originals to fit; `false` keeps their orientation."),
     p("reassociate", Ty::Int(1, 10_000), Default::Text("10"), "Recompute the associations every this many sweeps."),
-    p("tolerance", Ty::Number(Unit::Plain, ANY), Default::Text("0.05"), "Stop when the mean turning distance falls below this."),
+    p(
+        "tolerance",
+        Ty::Number(Unit::Plain, ANY),
+        Default::Text("0.05"),
+        "Stop when the mean turning distance falls below this.",
+    ),
 ];
 
 static EDITS: &[CallSpec] = &[

@@ -1,17 +1,22 @@
 //! Structure from example (Frasson ch. 3; digest 004 §2): analysis of a drawn subdivision,
 //! anisotropic Lloyd synthesis steered by control maps, polygonisation, shape optimisation.
 pub mod associate;
+pub mod controls;
 pub mod ellipse;
 pub mod faces;
 pub mod format;
 pub mod labels_import;
+pub mod lloyd;
+pub mod metric;
 pub mod render;
 pub mod sample;
 pub mod standins;
 pub mod stats;
+pub mod synthesis;
 pub mod turning;
 mod types;
 pub mod validate;
+pub mod voronoi;
 
 pub use format::{parse_structure, to_json, StructureError};
 pub use types::*;

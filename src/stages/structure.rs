@@ -1,0 +1,553 @@
+//! `structure`: structure from example (digest 004 §2), as the cached stages of §10.2:
+//!
+//! ```text
+//! sample's structure file ─► structure.analyse (A1) ─┐
+//! surface, size/orientation/density maps ────────────┼─► structure.sample (S1)
+//!                                                    │      └─► structure.lloyd (S2)
+//!                                                    │            └─► [structure.edits ─► structure.lloyd]
+//!                                                    │                  └─► structure.polygonize (S3)
+//!                                                    └────────────────────────► structure.shapes (S4)
+//! ```
+//!
+//! A density-map edit re-runs S2 and what follows, never the analysis; an output's view or
+//! edge width re-runs only that output.
+
+use serde::{Deserialize, Serialize};
+
+use super::{Bytes, Encoded, FnStage, OutputFormat, Planner};
+use crate::graph::{NodeId, RunCx, StageError};
+use crate::lang::{Decl, Diagnostic, Props};
+use crate::raster::{self, Image};
+use crate::synth::rng::Rng;
+use crate::synth::structure::controls::{Controls, DensityParams, OrientationMode, RemoveMode};
+use crate::synth::structure::lloyd::{self, IterationStats, LloydParams};
+use crate::synth::structure::metric::MetricKind;
+use crate::synth::structure::sample::{analyse_sample, SampleStructure};
+use crate::synth::structure::stats::{EllipseFit, StatsConfig};
+use crate::synth::structure::synthesis::{self, CenterSource, EmpiricalSampler, ShapeSampling, StatisticalParams};
+use crate::synth::structure::voronoi::{self, Domain};
+use crate::synth::structure::{render, Ellipse, Labels};
+use crate::synth::surface::Plane;
+
+pub use super::structure_spec::SPEC;
+
+/// Generators ready for Lloyd (S1, S1e).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Generators {
+    pub ellipses: Vec<Ellipse>,
+    pub frozen: Vec<bool>,
+    /// `N'` of statistical synthesis (the generator count before any removal).
+    pub target_count: usize,
+    /// Ellipses the occupancy map removed.
+    pub dropped: usize,
+}
+
+/// The relaxed generators and their label raster (S2).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Relaxed {
+    pub generators: Vec<Ellipse>,
+    pub frozen: Vec<bool>,
+    pub labels: Labels,
+    pub iterations: Vec<IterationStats>,
+    pub converged: bool,
+    pub orphans: Vec<usize>,
+}
+
+impl Encoded for SampleStructure {
+    fn encode(&self) -> Vec<u8> {
+        serde_json::to_vec(self).expect("sample structure serialises")
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        serde_json::from_slice(bytes).map_err(|e| e.to_string())
+    }
+}
+
+impl Encoded for Generators {
+    fn encode(&self) -> Vec<u8> {
+        serde_json::to_vec(self).expect("generators serialise")
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        serde_json::from_slice(bytes).map_err(|e| e.to_string())
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+struct RelaxedMeta {
+    generators: Vec<Ellipse>,
+    frozen: Vec<bool>,
+    width: usize,
+    height: usize,
+    iterations: Vec<IterationStats>,
+    converged: bool,
+    orphans: Vec<usize>,
+}
+
+/// Metadata as JSON, then the labels as raw little-endian u32s: a 1024² raster stays 4 MiB.
+impl Encoded for Relaxed {
+    fn encode(&self) -> Vec<u8> {
+        let meta = RelaxedMeta {
+            generators: self.generators.clone(),
+            frozen: self.frozen.clone(),
+            width: self.labels.width,
+            height: self.labels.height,
+            iterations: self.iterations.clone(),
+            converged: self.converged,
+            orphans: self.orphans.clone(),
+        };
+        let json = serde_json::to_vec(&meta).expect("meta serialises");
+        let mut out = Vec::with_capacity(8 + json.len() + 4 * self.labels.data.len());
+        out.extend_from_slice(&(json.len() as u64).to_le_bytes());
+        out.extend_from_slice(&json);
+        for v in &self.labels.data {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        out
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        let n = u64::from_le_bytes(bytes.get(..8).ok_or("truncated")?.try_into().map_err(|_| "truncated")?) as usize;
+        let json = bytes.get(8..8 + n).ok_or("truncated")?;
+        let meta: RelaxedMeta = serde_json::from_slice(json).map_err(|e| e.to_string())?;
+        let raw = &bytes[8 + n..];
+        if raw.len() != 4 * meta.width * meta.height {
+            return Err("label raster has the wrong length".into());
+        }
+        let data = raw.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        Ok(Relaxed {
+            generators: meta.generators,
+            frozen: meta.frozen,
+            labels: Labels { width: meta.width, height: meta.height, data },
+            iterations: meta.iterations,
+            converged: meta.converged,
+            orphans: meta.orphans,
+        })
+    }
+}
+
+/// Which optional map inputs a stage has, and at which input index.
+#[derive(Clone, Copy, Default)]
+struct MapInputs {
+    density: Option<usize>,
+    size: Option<usize>,
+    orientation: Option<usize>,
+    metric: Option<usize>,
+}
+
+impl MapInputs {
+    fn add(p: &Planner, props: &Props, inputs: &mut Vec<NodeId>, which: &[&'static str]) -> MapInputs {
+        let mut m = MapInputs::default();
+        for &name in which {
+            if let Some(map) = props.reference(name) {
+                let slot = Some(inputs.len());
+                inputs.push(p.result(map));
+                match name {
+                    "density" => m.density = slot,
+                    "size" => m.size = slot,
+                    "orientation" => m.orientation = slot,
+                    _ => m.metric = slot,
+                }
+            }
+        }
+        m
+    }
+}
+
+/// The maps of one stage, prepared at the target size.
+struct Maps {
+    density: Option<Vec<f32>>,
+    size: Option<Vec<f32>>,
+    orientation: Option<Image>,
+    metric: Option<Vec<MetricKind>>,
+}
+
+fn scalar_map(img: &Image, w: usize, h: usize) -> Vec<f32> {
+    let img = if img.width == w && img.height == h {
+        img.clone()
+    } else {
+        raster::resample::resize(img, w, h, raster::resample::Filter::Bilinear)
+    };
+    if img.channels == 1 {
+        img.data
+    } else {
+        raster::color::luminance(&img).data
+    }
+}
+
+fn prepare_maps(cx: &RunCx, m: MapInputs, w: usize, h: usize) -> Result<Maps, StageError> {
+    let orientation = match m.orientation {
+        None => None,
+        Some(i) => {
+            let img = cx.input::<Image>(i);
+            if img.channels != 2 {
+                return Err(StageError::new("the orientation map must be a 2-channel field (e.g. `radial(field = tangential)` or `image(..., channel = vector)`)").at_prop("orientation"));
+            }
+            let mut f = if img.width == w && img.height == h {
+                (*img).clone()
+            } else {
+                raster::resample::resize(&img, w, h, raster::resample::Filter::Bilinear)
+            };
+            // Resampling shortens vectors; the direction is what matters.
+            let n = w * h;
+            for i in 0..n {
+                let (x, y) = (f.data[i], f.data[n + i]);
+                let l = (x * x + y * y).sqrt();
+                if l > 1e-6 {
+                    f.data[i] = x / l;
+                    f.data[n + i] = y / l;
+                }
+            }
+            Some(f)
+        }
+    };
+    Ok(Maps {
+        density: m.density.map(|i| scalar_map(&cx.input::<Image>(i), w, h)),
+        size: m.size.map(|i| scalar_map(&cx.input::<Image>(i), w, h)),
+        orientation,
+        metric: m.metric.map(|i| {
+            crate::synth::structure::controls::metric_map_from_levels(&scalar_map(&cx.input::<Image>(i), w, h))
+        }),
+    })
+}
+
+fn metric_kind(name: &str) -> MetricKind {
+    match name {
+        "manhattan" => MetricKind::Manhattan,
+        "chebyshev" => MetricKind::Chebyshev,
+        _ => MetricKind::Elliptic,
+    }
+}
+
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+    let props = &d.props;
+    let from = props.reference("from").expect("required");
+    let sample = p.decl(from);
+    let Some(path) = sample.props.path("structure").cloned() else {
+        return Err(Diagnostic::error(format!("sample `{from}` has no `structure` file to learn from"))
+            .with_code("tessera::structure")
+            .with_label(props.span("from").unwrap_or(d.name_span), "this sample")
+            .with_label(sample.name_span, "declared here")
+            .with_help("give the sample `structure = \"file.json\"`"));
+    };
+    let path_span = sample.props.span("structure").unwrap_or(sample.name_span);
+    let on = props.reference("on").expect("required");
+    let (w, h) = p.decl(on).props.size("plane");
+    let (w, h) = (w as usize, h as usize);
+    let seed = props.get("seed").map(|_| props.int("seed") as u64).unwrap_or_else(|| p.seed(d, "structure"));
+
+    // A1: analysis of the sample's structure.
+    let config = StatsConfig {
+        exclude_border_regions: props.bool("exclude_border_regions"),
+        ellipse_fit: if props.enumeration("ellipse_fit") == "pixels" {
+            EllipseFit::Pixels
+        } else {
+            EllipseFit::Polygon
+        },
+    };
+    let analyse = FnStage::new("structure.analyse", 1, serde_json::to_string(&config).expect("config"), move |cx| {
+        let bytes = cx.file(0)?;
+        let text = std::str::from_utf8(&bytes)
+            .map_err(|_| StageError::new("the structure file is not UTF-8 text").in_file(0))?;
+        let s = analyse_sample(text, &config).map_err(|e| StageError::new(e.to_string()).in_file(0))?;
+        if s.originals().is_empty() {
+            return Err(StageError::new("the structure has no interior region to learn from")
+                .in_file(0)
+                .with_help("draw closed regions; regions touching the sample border are left out of the statistics unless `exclude_border_regions = false`"));
+        }
+        Ok(s)
+    });
+    let a1 = p.add(format!("structure {} (analysis)", d.name), analyse, vec![], vec![(path, path_span)]);
+    let surface = p.result(on);
+
+    // S1: generators.
+    let mut inputs = vec![a1, surface];
+    let maps = MapInputs::add(p, props, &mut inputs, &["size", "density"]);
+    let s1_params = serde_json::json!({
+        "w": w, "h": h, "seed": seed,
+        "mode": props.get("mode"), "scale": props.get("scale"), "centers": props.get("centers"),
+        "shape_sampling": props.get("shape_sampling"), "perturb": props.get("perturb"), "swaps": props.get("swaps"),
+        "size_min": props.get("size_min"), "occupancy_remove": props.get("occupancy_remove"),
+        "density_eps": props.get("density_eps"), "density_gamma": props.get("density_gamma"),
+    })
+    .to_string();
+    let opts = SampleOptions::from(props);
+    let s1 = FnStage::new("structure.sample", 1, s1_params, move |cx| sample_generators(cx, &opts, maps, w, h, seed));
+    let s1 = p.add(format!("structure {} (sampling)", d.name), s1, inputs, vec![]);
+
+    // S2: Lloyd.
+    let s2 = plan_lloyd(p, d, s1, surface, w, h, "lloyd");
+    p.parts.insert((d.name.clone(), "lloyd"), s2);
+    p.parts.insert((d.name.clone(), "analysis"), a1);
+    Ok(s2)
+}
+
+/// What S1 needs from the declaration.
+#[derive(Clone)]
+struct SampleOptions {
+    statistical: bool,
+    scale: f64,
+    centers: String,
+    joint: bool,
+    perturb: f64,
+    swaps: f64,
+    size_min: f64,
+    remove: RemoveMode,
+    density: DensityParams,
+}
+
+impl SampleOptions {
+    fn from(props: &Props) -> Self {
+        SampleOptions {
+            statistical: props.enumeration("mode") == "statistical",
+            scale: props.num("scale"),
+            centers: props.enumeration("centers").to_string(),
+            joint: props.enumeration("shape_sampling") == "joint",
+            perturb: props.num("perturb"),
+            swaps: props.num("swaps"),
+            size_min: props.num("size_min"),
+            remove: if props.enumeration("occupancy_remove") == "any_overlap" {
+                RemoveMode::AnyOverlap
+            } else {
+                RemoveMode::Center
+            },
+            density: DensityParams {
+                eps: props.num("density_eps") as f32,
+                gamma: props.num("density_gamma") as f32,
+                invert: false,
+            },
+        }
+    }
+}
+
+fn sample_generators(
+    cx: &RunCx,
+    o: &SampleOptions,
+    m: MapInputs,
+    w: usize,
+    h: usize,
+    seed: u64,
+) -> Result<Generators, StageError> {
+    let sample = cx.input::<SampleStructure>(0);
+    let plane = cx.input::<Plane>(1);
+    check_plane(&plane, w, h)?;
+    let maps = prepare_maps(cx, m, w, h)?;
+    let controls = Controls {
+        density: maps.density.as_deref(),
+        density_params: o.density,
+        occupancy: Some(plane.occupancy.plane(0)),
+        size: maps.size.as_deref(),
+        k_min: o.size_min,
+        ..Controls::default()
+    };
+    let mut rng = Rng::new(seed);
+    let originals: Vec<Ellipse> = sample.originals().into_iter().map(|(_, e)| e).collect();
+    if !o.statistical {
+        // Trivial synthesis: the sample's own regions, mapped onto the target, perturbed
+        // and swapped (digest §2.8 a).
+        let (sx, sy) = (w as f64 / sample.size[0].max(1.0), h as f64 / sample.size[1].max(1.0));
+        let all: Vec<Ellipse> = sample
+            .ellipses
+            .iter()
+            .flatten()
+            .map(|e| Ellipse { center: [e.center[0] * sx, e.center[1] * sy], a: e.a * o.scale, b: e.b * o.scale, ..*e })
+            .collect();
+        let moved = synthesis::perturb(&all, o.perturb, 0.0, &mut rng);
+        let swapped = synthesis::swap_regions(&moved, (o.swaps * moved.len() as f64).round() as usize, &mut rng);
+        let (kept, dropped) = synthesis::drop_forbidden(&swapped, w, h, plane.occupancy.plane(0), o.remove);
+        let n = kept.len();
+        return Ok(Generators { ellipses: kept, frozen: vec![false; n], target_count: all.len(), dropped });
+    }
+    let model = &sample.model;
+    let params =
+        StatisticalParams { scale: o.scale, mean_area: model.mean_region_area, remove: o.remove, max_retries: 32 };
+    let axes_hist = model.ellipse_axes.histogram.clone();
+    let angle_hist = model.ellipse_angle.histogram.clone();
+    let mut centre_hist = model.ellipse_center.histogram.clone();
+    let mut centre_fn = move |r: &mut Rng| centre_hist.as_mut().map(|hh| hh.sample(r)).unwrap_or([0.0, 0.0]);
+    let centers = match o.centers.as_str() {
+        "density" => CenterSource::Density,
+        "histogram" if model.ellipse_center.histogram.is_some() => {
+            CenterSource::Histogram { sampler: &mut centre_fn, bbox: [[0.0, 0.0], sample.size] }
+        }
+        _ => CenterSource::Uniform,
+    };
+    let synthesized = match (o.joint, axes_hist, angle_hist) {
+        (false, Some(axes), Some(angle)) => {
+            let mut sampler = synthesis::Independent {
+                axes: move |r: &mut Rng| {
+                    let p = axes.sample(r);
+                    (p[0], p[1])
+                },
+                angle: move |r: &mut Rng| angle.sample(r),
+            };
+            synthesis::statistical(w, h, &controls, &mut sampler, centers, &params, &mut rng)
+        }
+        (joint, axes, angle) => {
+            // Joint triples with ±½-bin jitter (or, with too few regions for histograms,
+            // a plain bootstrap of the originals).
+            let jitter = [
+                axes.as_ref().map_or(0.0, |a| a.x.width),
+                axes.as_ref().map_or(0.0, |a| a.y.width),
+                angle.as_ref().map_or(0.0, |a| a.axis.width),
+            ];
+            let mode = if joint { ShapeSampling::Joint } else { ShapeSampling::Independent };
+            let mut sampler = EmpiricalSampler::new(&originals, mode).with_jitter(jitter);
+            synthesis::statistical(w, h, &controls, &mut sampler, centers, &params, &mut rng)
+        }
+    };
+    if synthesized.generators.is_empty() {
+        return Err(StageError::new("no region fits on the surface: the occupancy map leaves no room at this scale")
+            .with_help("lower `scale` or free more of the surface"));
+    }
+    Ok(Generators {
+        ellipses: synthesized.generators,
+        frozen: synthesized.frozen,
+        target_count: synthesized.target_count,
+        dropped: synthesized.dropped,
+    })
+}
+
+fn check_plane(plane: &Plane, w: usize, h: usize) -> Result<(), StageError> {
+    if plane.width() != w || plane.height() != h {
+        return Err(StageError::new("the surface changed size while planning").at_prop("on"));
+    }
+    Ok(())
+}
+
+/// S2 (and S2 after edits): anisotropic Lloyd over the generators of node `gens`.
+fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize, h: usize, tag: &str) -> NodeId {
+    let props = &d.props;
+    let block = props.block("lloyd");
+    let params = LloydParams {
+        max_iters: block.int("iterations") as usize,
+        tol: block.num("tolerance"),
+        resolution: block.num("resolution"),
+        rotate: block.bool("rotate"),
+        metric: metric_kind(props.enumeration("metric")),
+        ..LloydParams::default()
+    };
+    let density =
+        DensityParams { eps: props.num("density_eps") as f32, gamma: props.num("density_gamma") as f32, invert: false };
+    let orientation_mode = if props.enumeration("orientation_mode") == "center" {
+        OrientationMode::Center
+    } else {
+        OrientationMode::Region
+    };
+    let mut inputs = vec![gens, surface];
+    let maps = MapInputs::add(p, props, &mut inputs, &["density", "orientation", "metric_map"]);
+    let key = serde_json::json!({
+        "w": w, "h": h, "lloyd": params, "density": density, "orientation_mode": orientation_mode,
+    })
+    .to_string();
+    let stage = FnStage::new("structure.lloyd", 1, key, move |cx| {
+        let g = cx.input::<Generators>(0);
+        let plane = cx.input::<Plane>(1);
+        check_plane(&plane, w, h)?;
+        let m = prepare_maps(cx, maps, w, h)?;
+        let controls = Controls {
+            density: m.density.as_deref(),
+            density_params: density,
+            occupancy: Some(plane.occupancy.plane(0)),
+            orientation: m.orientation.as_ref(),
+            orientation_mode,
+            metric: m.metric.as_deref(),
+            ..Controls::default()
+        };
+        let r = lloyd::lloyd(w, h, &g.ellipses, Some(&g.frozen), &controls, &params);
+        Ok(Relaxed {
+            generators: r.generators,
+            frozen: r.frozen,
+            labels: r.labels,
+            iterations: r.iterations,
+            converged: r.converged,
+            orphans: r.orphans,
+        })
+    });
+    p.add(format!("structure {} ({tag})", d.name), stage, inputs, vec![])
+}
+
+/// Encodes an image output in the output's format.
+pub(crate) fn encode_image(img: &Image, format: OutputFormat) -> Result<Bytes, StageError> {
+    match format {
+        OutputFormat::Png8 => raster::io::encode_png(img, 8),
+        OutputFormat::Png16 => raster::io::encode_png(img, 16),
+        OutputFormat::Exr => raster::io::encode_exr(img),
+        OutputFormat::Json | OutputFormat::Svg => unreachable!("text formats are checked when planned"),
+    }
+    .map(Bytes)
+    .map_err(|e| StageError::new(format!("cannot encode the output: {e}")))
+}
+
+/// The stage writing one view of a structure to an output file.
+pub fn plan_output(
+    p: &mut Planner,
+    d: &Decl,
+    structure: &str,
+    format: OutputFormat,
+    view: &str,
+    edge_width: f64,
+) -> Result<NodeId, Diagnostic> {
+    let view = match (view, format) {
+        ("auto", OutputFormat::Json) => "mesh",
+        ("auto", OutputFormat::Svg) => "svg",
+        ("auto", _) => "labels",
+        (v, _) => v,
+    };
+    let wants = match view {
+        "mesh" | "stats" => "json",
+        "svg" => "svg",
+        "labels16" => "png16",
+        _ => "image",
+    };
+    let fits = match wants {
+        "json" => format == OutputFormat::Json,
+        "svg" => format == OutputFormat::Svg,
+        "png16" => format == OutputFormat::Png16 || format == OutputFormat::Exr,
+        _ => !format.is_text(),
+    };
+    if !fits {
+        let hint = match wants {
+            "json" => "a `.json` file",
+            "svg" => "an `.svg` file",
+            "png16" => "a `.png` with `format = png16` (or `.exr`)",
+            _ => "a `.png` or `.exr` file",
+        };
+        return Err(Diagnostic::error(format!("the `{view}` view is written to {hint}"))
+            .with_code("tessera::output_view")
+            .with_label(d.props.span("view").unwrap_or(d.name_span), "this view")
+            .with_label(d.name_span, "this file"));
+    }
+    let lloyd = p.part(structure, "lloyd").expect("structures plan a Lloyd stage");
+    let params =
+        serde_json::json!({ "view": view, "format": format!("{format:?}"), "edge_width": edge_width }).to_string();
+    let view_name = view.to_string();
+    let metric = metric_kind(p.decl(structure).props.enumeration("metric"));
+    let stage = FnStage::new("structure.view", 1, params, move |cx| {
+        let r = cx.input::<Relaxed>(0);
+        let img = match view_name.as_str() {
+            "labels" => render::labels_colour(&r.labels),
+            "labels16" => render::labels_u16(&r.labels)
+                .ok_or_else(|| StageError::new("more than 65534 regions do not fit a 16-bit PNG"))?,
+            "ellipses" => render::ellipses_overlay(&r.labels, &r.generators),
+            "distance" => distance_view(&r, metric),
+            other => unreachable!("view `{other}` is planned elsewhere"),
+        };
+        encode_image(&img, format)
+    });
+    Ok(p.add(format!("output {}", d.name), stage, vec![lloyd], vec![]))
+}
+
+/// Distance of each pixel to its region's generator, 0 (black) at the generator and 1 at
+/// the farthest labelled pixel; the Fig. 3.14 view.
+fn distance_view(r: &Relaxed, metric: MetricKind) -> Image {
+    let (w, h) = (r.labels.width, r.labels.height);
+    let domain = Domain { width: w, height: h, allowed: None, metric_map: None };
+    let d = voronoi::distance_field(&domain, &r.generators, &r.labels, metric);
+    let max = d.iter().copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max).max(1e-12);
+    let mut img = Image::new(w, h, 1);
+    for (o, v) in img.data.iter_mut().zip(d) {
+        *o = if v.is_finite() { (v / max) as f32 } else { 1.0 };
+    }
+    img
+}

@@ -1,0 +1,714 @@
+//! Generator synthesis (digest 004 §2.8): trivial synthesis (perturb / swap the original
+//! ellipses) and statistical synthesis stage 1 (sample `N'` ellipses, then relax them with
+//! [`super::lloyd::lloyd`]).
+//!
+//! Statistical synthesis:
+//!
+//! * `N' = round(A' / (s²·r̄))` with `A'` the allowed area (pixels not forbidden by the
+//!   occupancy map), `s` the linear scale and `r̄` the mean original region area. With a size
+//!   map, `A'` is the size-weighted area `Σ_allowed 1/k(p)²` (each region is `k²` times
+//!   smaller where the map is dark, so more of them are needed; without this, Lloyd would only
+//!   shuffle the same count of regions around).
+//! * shapes `(a, b, θ)` come from a [`ShapeSampler`]: any closure
+//!   `FnMut(&mut Rng) -> (a, b, θ)` (e.g. the analysis histograms), [`Independent`] axes and
+//!   angle samplers (the thesis's default, §2.4), or the [`EmpiricalSampler`] over example
+//!   ellipses (independent or joint bootstrap). Axes are multiplied by `s`.
+//! * centres: [`CenterSource::Uniform`] over allowed pixels, [`CenterSource::Density`]
+//!   proportional to the density-map weight (uniform without a map; the default), or
+//!   [`CenterSource::Histogram`] (a sampler in sample coordinates whose bounding box is mapped
+//!   onto the target). With a size map, placement is also weighted by `1/k²`.
+//! * occupancy: centres are only placed in allowed pixels (`RemoveMode::Center`); with
+//!   `RemoveMode::AnyOverlap` an ellipse overlapping the forbidden area is re-placed up to
+//!   `max_retries` times and then dropped (counted in `dropped`).
+//!
+//! Random draws per generator, in order: the centre (two draws for the pixel search and
+//! sub-pixel offset, more on retries), then the shape sampler.
+
+use serde::{Deserialize, Serialize};
+
+use super::controls::{
+    allowed_from_occupancy, density_weight, ellipse_overlaps_forbidden, point_allowed, size_factor, Controls,
+    RemoveMode,
+};
+use super::metric::canonical;
+use super::types::{Ellipse, Point};
+use crate::synth::rng::Rng;
+
+/// Draws one region shape `(a, b, θ)` (semi-axes, angle; any order of `a`, `b` is accepted
+/// and canonicalised).
+pub trait ShapeSampler {
+    fn sample(&mut self, rng: &mut Rng) -> (f64, f64, f64);
+}
+
+impl<F: FnMut(&mut Rng) -> (f64, f64, f64)> ShapeSampler for F {
+    fn sample(&mut self, rng: &mut Rng) -> (f64, f64, f64) {
+        self(rng)
+    }
+}
+
+/// Axes and angle drawn independently (the thesis's assumption): `axes` then `angle`.
+pub struct Independent<A, T> {
+    pub axes: A,
+    pub angle: T,
+}
+
+impl<A: FnMut(&mut Rng) -> (f64, f64), T: FnMut(&mut Rng) -> f64> ShapeSampler for Independent<A, T> {
+    fn sample(&mut self, rng: &mut Rng) -> (f64, f64, f64) {
+        let (a, b) = (self.axes)(rng);
+        (a, b, (self.angle)(rng))
+    }
+}
+
+/// How shapes are drawn from examples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShapeSampling {
+    /// `(a, b)` of one random example, `θ` of another (thesis, §2.4).
+    #[default]
+    Independent,
+    /// A whole `(a, b, θ)` triple of one example (bootstrap, §2.8 proposal).
+    Joint,
+}
+
+/// Bootstrap sampler over example ellipses (a simple stand-in for the histogram sampler).
+#[derive(Clone, Debug)]
+pub struct EmpiricalSampler {
+    examples: Vec<Ellipse>,
+    pub mode: ShapeSampling,
+    /// Full widths of a uniform jitter added to `a`, `b`, `θ` (`±width/2`).
+    pub jitter: [f64; 3],
+}
+
+impl EmpiricalSampler {
+    pub fn new(examples: &[Ellipse], mode: ShapeSampling) -> Self {
+        assert!(!examples.is_empty(), "no example ellipses");
+        EmpiricalSampler { examples: examples.to_vec(), mode, jitter: [0.0; 3] }
+    }
+
+    pub fn with_jitter(mut self, jitter: [f64; 3]) -> Self {
+        self.jitter = jitter;
+        self
+    }
+}
+
+impl ShapeSampler for EmpiricalSampler {
+    /// Draws: example index (1, or 2 when independent), then three jitter draws if any jitter
+    /// width is non-zero.
+    fn sample(&mut self, rng: &mut Rng) -> (f64, f64, f64) {
+        let i = rng.below(self.examples.len());
+        let e = self.examples[i];
+        let theta = match self.mode {
+            ShapeSampling::Joint => e.theta,
+            ShapeSampling::Independent => self.examples[rng.below(self.examples.len())].theta,
+        };
+        let (mut a, mut b, mut t) = (e.a, e.b, theta);
+        if self.jitter != [0.0; 3] {
+            a += (rng.next_f64() - 0.5) * self.jitter[0];
+            b += (rng.next_f64() - 0.5) * self.jitter[1];
+            t += (rng.next_f64() - 0.5) * self.jitter[2];
+        }
+        (a.max(1e-3), b.max(1e-3), t)
+    }
+}
+
+/// Where generator centres are placed.
+pub enum CenterSource<'a> {
+    /// Uniform over allowed pixels.
+    Uniform,
+    /// Proportional to the density-map weight (uniform without a density map).
+    Density,
+    /// A centre sampler in sample coordinates (e.g. the analysis's centre histogram) and the
+    /// bounding box `[min, max]` of the sample; the box is mapped onto the target. Samples in
+    /// forbidden pixels are redrawn (up to 64 times, then a density-weighted draw is used).
+    Histogram { sampler: &'a mut dyn FnMut(&mut Rng) -> Point, bbox: [Point; 2] },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StatisticalParams {
+    /// Linear scale `s` (smaller = more, smaller regions).
+    pub scale: f64,
+    /// Mean original region area `r̄` (pixels, at scale 1).
+    pub mean_area: f64,
+    pub remove: RemoveMode,
+    /// Re-placements of an ellipse overlapping the forbidden area (`AnyOverlap` only).
+    pub max_retries: usize,
+}
+
+impl StatisticalParams {
+    pub fn new(mean_area: f64) -> Self {
+        StatisticalParams { scale: 1.0, mean_area, remove: RemoveMode::Center, max_retries: 32 }
+    }
+}
+
+/// Sampled generators, ready for Lloyd.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Synthesized {
+    pub generators: Vec<Ellipse>,
+    pub frozen: Vec<bool>,
+    /// `N'`.
+    pub target_count: usize,
+    /// Ellipses dropped by the occupancy test (`AnyOverlap`).
+    pub dropped: usize,
+}
+
+/// `N' = round(A' / (s²·r̄))`.
+pub fn region_count(allowed_area: f64, scale: f64, mean_area: f64) -> usize {
+    assert!(scale > 0.0 && mean_area > 0.0, "scale and mean area must be positive");
+    (allowed_area / (scale * scale * mean_area)).round() as usize
+}
+
+/// Mean area `r̄` of the given regions.
+pub fn mean_area(areas: &[f64]) -> f64 {
+    areas.iter().sum::<f64>() / areas.len() as f64
+}
+
+/// The area `A'` used for `N'`: allowed pixels, each counted `1/k²` with a size map.
+pub fn effective_area(width: usize, height: usize, controls: &Controls) -> f64 {
+    let allowed = controls.allowed();
+    let mut total = 0.0;
+    for y in 0..height {
+        for x in 0..width {
+            let i = y * width + x;
+            if allowed.as_ref().is_some_and(|a| !a[i]) {
+                continue;
+            }
+            total += match controls.size {
+                Some(s) => {
+                    let k = size_factor(s, width, height, controls.k_min, [x as f64 + 0.5, y as f64 + 0.5]);
+                    1.0 / (k * k)
+                }
+                None => 1.0,
+            };
+        }
+    }
+    total
+}
+
+/// Samples pixels proportionally to per-pixel weights (prefix sums, binary search).
+struct PixelSampler {
+    cumulative: Vec<f64>,
+    width: usize,
+}
+
+impl PixelSampler {
+    fn new(weights: impl Iterator<Item = f64>, width: usize) -> Self {
+        let mut acc = 0.0;
+        let cumulative = weights
+            .map(|w| {
+                acc += w.max(0.0);
+                acc
+            })
+            .collect();
+        PixelSampler { cumulative, width }
+    }
+
+    fn total(&self) -> f64 {
+        self.cumulative.last().copied().unwrap_or(0.0)
+    }
+
+    /// Two draws: the pixel, then one 64-bit value split into two 26-bit sub-pixel offsets.
+    fn sample(&self, rng: &mut Rng) -> Point {
+        let u = rng.next_f64() * self.total();
+        let i = self.cumulative.partition_point(|&c| c <= u).min(self.cumulative.len() - 1);
+        let r = rng.next_u64();
+        let ox = (r >> 38) as f64 / (1u64 << 26) as f64;
+        let oy = ((r >> 12) & ((1 << 26) - 1)) as f64 / (1u64 << 26) as f64;
+        [(i % self.width) as f64 + ox, (i / self.width) as f64 + oy]
+    }
+}
+
+/// Statistical synthesis stage 1, sampling: `N'` generators with shapes from `shapes` and
+/// centres from `centers`. Relax the result with [`super::lloyd::lloyd`].
+pub fn statistical(
+    width: usize,
+    height: usize,
+    controls: &Controls,
+    shapes: &mut dyn ShapeSampler,
+    centers: CenterSource,
+    params: &StatisticalParams,
+    rng: &mut Rng,
+) -> Synthesized {
+    controls.check(width, height);
+    let allowed = controls.allowed();
+    let area = effective_area(width, height, controls);
+    let target = region_count(area, params.scale, params.mean_area);
+    let use_density = !matches!(centers, CenterSource::Uniform);
+    let weights = (0..width * height).map(|i| {
+        if allowed.as_ref().is_some_and(|a| !a[i]) {
+            return 0.0;
+        }
+        let p = [(i % width) as f64 + 0.5, (i / width) as f64 + 0.5];
+        let mut w = 1.0;
+        if use_density {
+            if let Some(d) = controls.density {
+                w *= density_weight(d[i], &controls.density_params) as f64;
+            }
+        }
+        if let Some(s) = controls.size {
+            let k = size_factor(s, width, height, controls.k_min, p);
+            w /= k * k;
+        }
+        w
+    });
+    let pixels = PixelSampler::new(weights, width);
+    let mut out =
+        Synthesized { generators: Vec::with_capacity(target), frozen: Vec::new(), target_count: target, dropped: 0 };
+    if pixels.total() <= 0.0 {
+        out.dropped = target;
+        return out;
+    }
+    let mut centers = centers;
+    let mut place = |rng: &mut Rng| -> Point {
+        if let CenterSource::Histogram { sampler, bbox } = &mut centers {
+            for _ in 0..64 {
+                let q = sampler(rng);
+                let sx = (bbox[1][0] - bbox[0][0]).max(1e-12);
+                let sy = (bbox[1][1] - bbox[0][1]).max(1e-12);
+                let p = [(q[0] - bbox[0][0]) / sx * width as f64, (q[1] - bbox[0][1]) / sy * height as f64];
+                if point_allowed(allowed.as_deref(), width, height, p) {
+                    return p;
+                }
+            }
+        }
+        pixels.sample(rng)
+    };
+    for _ in 0..target {
+        let mut center = place(rng);
+        let (a, b, t) = shapes.sample(rng);
+        let mut e = canonical(Ellipse { center, a: a * params.scale, b: b * params.scale, theta: t });
+        if params.remove == RemoveMode::AnyOverlap {
+            if let Some(al) = &allowed {
+                let mut tries = 0;
+                while ellipse_overlaps_forbidden(&e, width, height, al) && tries < params.max_retries {
+                    center = place(rng);
+                    e.center = center;
+                    tries += 1;
+                }
+                if ellipse_overlaps_forbidden(&e, width, height, al) {
+                    out.dropped += 1;
+                    continue;
+                }
+            }
+        }
+        out.generators.push(e);
+    }
+    out.frozen = vec![false; out.generators.len()];
+    out
+}
+
+/// Trivial synthesis: Gaussian noise on the centres (`σ` px) and angles (`σ` rad).
+pub fn perturb(originals: &[Ellipse], center_sigma: f64, theta_sigma: f64, rng: &mut Rng) -> Vec<Ellipse> {
+    originals
+        .iter()
+        .map(|e| {
+            let dx = rng.normal() * center_sigma;
+            let dy = rng.normal() * center_sigma;
+            let dt = rng.normal() * theta_sigma;
+            canonical(Ellipse { center: [e.center[0] + dx, e.center[1] + dy], theta: e.theta + dt, ..*e })
+        })
+        .collect()
+}
+
+/// Trivial synthesis: `swaps` random swaps of two regions' shapes `(a, b, θ)` (the centres
+/// stay; equivalently the two regions trade places).
+pub fn swap_regions(originals: &[Ellipse], swaps: usize, rng: &mut Rng) -> Vec<Ellipse> {
+    let mut out = originals.to_vec();
+    if out.len() < 2 {
+        return out;
+    }
+    for _ in 0..swaps {
+        let i = rng.below(out.len());
+        let j = rng.below(out.len());
+        let (ci, cj) = (out[i].center, out[j].center);
+        out.swap(i, j);
+        out[i].center = ci;
+        out[j].center = cj;
+    }
+    out
+}
+
+/// Removes ellipses whose centre is forbidden (occupancy operation 1, `Center` mode) from a
+/// generator list; returns the kept list and the removed count. Convenience for trivial
+/// synthesis under an occupancy map.
+pub fn drop_forbidden(
+    ellipses: &[Ellipse],
+    width: usize,
+    height: usize,
+    occupancy: &[f32],
+    mode: RemoveMode,
+) -> (Vec<Ellipse>, usize) {
+    let allowed = allowed_from_occupancy(occupancy);
+    let removed = super::controls::remove_forbidden(ellipses, width, height, &allowed, mode);
+    let kept: Vec<Ellipse> =
+        ellipses.iter().enumerate().filter(|(i, _)| removed.binary_search(i).is_err()).map(|(_, e)| *e).collect();
+    (kept, removed.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::lloyd::test_support::*;
+    use super::super::lloyd::{lloyd, LloydParams, LloydResult};
+    use super::super::types::NO_REGION;
+    use super::super::voronoi::region_sizes;
+    use super::*;
+    use crate::raster::Image;
+
+    /// A relaxed "original" tiling and its interior regions' refitted ellipses and areas.
+    struct Example {
+        ellipses: Vec<Ellipse>,
+        areas: Vec<f64>,
+    }
+
+    fn example(seed: u64, w: usize, h: usize, n: usize, theta_mean: f64, theta_spread: f64) -> Example {
+        let mut rng = Rng::new(seed);
+        let gens: Vec<Ellipse> = (0..n)
+            .map(|_| {
+                let a = 12.0 * (rng.normal() * 0.25).exp();
+                let b = a / rng.range(1.3, 2.5);
+                let t = theta_mean + rng.normal() * theta_spread;
+                canonical(Ellipse { center: [rng.range(0.0, w as f64), rng.range(0.0, h as f64)], a, b, theta: t })
+            })
+            .collect();
+        let r = lloyd(w, h, &gens, None, &Controls::default(), &LloydParams::default());
+        let fits = fit_regions(&r.labels, r.generators.len());
+        let interior: Vec<Fit> = fits.into_iter().flatten().filter(|f| !f.border).collect();
+        Example {
+            ellipses: interior.iter().map(|f| f.ellipse).collect(),
+            areas: interior.iter().map(|f| f.area).collect(),
+        }
+    }
+
+    fn relax(w: usize, h: usize, s: &Synthesized, controls: &Controls) -> LloydResult {
+        lloyd(w, h, &s.generators, Some(&s.frozen), controls, &LloydParams::default())
+    }
+
+    fn interior_fits(r: &LloydResult) -> Vec<Fit> {
+        fit_regions(&r.labels, r.generators.len()).into_iter().flatten().filter(|f| !f.border).collect()
+    }
+
+    /// F9: random region swaps + Lloyd: count unchanged, `(a, b)` multiset unchanged, every
+    /// generator inside its own region.
+    #[test]
+    fn f9_trivial_swap_synthesis() {
+        let (w, h) = (320, 256);
+        let mut rng = Rng::new(90);
+        let gens = random_ellipses(&mut rng, 90, w, h, 8.0, 20.0, 2.5);
+        let orig = lloyd(w, h, &gens, None, &Controls::default(), &LloydParams::default()).generators;
+        let swapped = swap_regions(&orig, 60, &mut rng);
+        let perturbed = perturb(&swapped, 2.0, 0.1, &mut rng);
+        for input in [swapped, perturbed] {
+            let params = LloydParams { drop_orphans: false, ..Default::default() };
+            let r = lloyd(w, h, &input, None, &Controls::default(), &params);
+            let sizes = region_sizes(&r.labels, r.generators.len());
+            assert_eq!(sizes.iter().filter(|&&s| s > 0).count(), orig.len());
+            let key = |v: &[Ellipse]| {
+                let mut k: Vec<(u64, u64)> = v.iter().map(|e| (e.a.to_bits(), e.b.to_bits())).collect();
+                k.sort_unstable();
+                k
+            };
+            assert_eq!(key(&orig), key(&r.generators));
+            for (g, e) in r.generators.iter().enumerate() {
+                let (x, y) = (e.center[0].floor() as usize, e.center[1].floor() as usize);
+                assert_eq!(r.labels.get(x.min(w - 1), y.min(h - 1)), g as u32, "generator {g} outside its region");
+            }
+        }
+        eprintln!("F9: {} regions kept, (a,b) multiset identical, all generators inside their regions", orig.len());
+    }
+
+    /// F10: N' exact, orphans ≤ 1 %, s = 0.5 gives ≈ 4× as many regions (±5 %).
+    #[test]
+    fn f10_region_count_and_scale() {
+        let (w, h) = (400, 300);
+        let ex = example(100, 300, 300, 120, 0.3, 0.3);
+        let rbar = mean_area(&ex.areas);
+        let occ: Vec<f32> = (0..w * h).map(|i| if (i % w) < 60 && (i / w) < 100 { 0.0 } else { 1.0 }).collect();
+        let controls = Controls { occupancy: Some(&occ), ..Default::default() };
+        let allowed_px = (w * h - 60 * 100) as f64;
+        let mut counts = Vec::new();
+        for scale in [1.0, 0.5] {
+            let mut sampler = EmpiricalSampler::new(&ex.ellipses, ShapeSampling::Joint);
+            let params = StatisticalParams { scale, ..StatisticalParams::new(rbar) };
+            let s = statistical(w, h, &controls, &mut sampler, CenterSource::Density, &params, &mut Rng::new(101));
+            let expected = (allowed_px / (scale * scale * rbar)).round() as usize;
+            assert_eq!(s.target_count, expected);
+            assert_eq!(s.generators.len(), expected);
+            let r = relax(w, h, &s, &controls);
+            let nonempty = region_sizes(&r.labels, r.generators.len()).iter().filter(|&&c| c > 0).count();
+            let orphan_share = r.orphans.len() as f64 / expected as f64;
+            eprintln!(
+                "F10 s={scale}: N' = {expected} (r̄ = {rbar:.1}), non-empty {nonempty}, orphans {} ({:.2} %)",
+                r.orphans.len(),
+                100.0 * orphan_share
+            );
+            assert_eq!(nonempty, expected - r.orphans.len());
+            assert!(orphan_share <= 0.01);
+            counts.push(nonempty as f64);
+        }
+        let ratio = counts[1] / counts[0];
+        eprintln!("F10 region ratio s=0.5 / s=1: {ratio:.4}");
+        assert!((ratio / 4.0 - 1.0).abs() <= 0.05, "ratio {ratio}");
+    }
+
+    /// F11: statistical similarity of stage 1 with a simple (bootstrap) sampler, 3 seeds.
+    #[test]
+    fn f11_statistical_similarity() {
+        let ex = example(110, 400, 400, 220, 0.5, 0.25);
+        let rbar = mean_area(&ex.areas);
+        let ex_ratio: Vec<f64> = ex.ellipses.iter().map(|e| e.a / e.b).collect();
+        let ex_area: Vec<f64> = ex.areas.iter().map(|a| a / rbar).collect();
+        let ex_theta: Vec<f64> = ex.ellipses.iter().map(|e| e.theta).collect();
+        let mean_ratio = ex_ratio.iter().sum::<f64>() / ex_ratio.len() as f64;
+        for seed in [111, 112, 113] {
+            let (w, h) = (480, 400);
+            for mode in [ShapeSampling::Independent, ShapeSampling::Joint] {
+                let mut sampler = EmpiricalSampler::new(&ex.ellipses, mode);
+                let s = statistical(
+                    w,
+                    h,
+                    &Controls::default(),
+                    &mut sampler,
+                    CenterSource::Density,
+                    &StatisticalParams::new(rbar),
+                    &mut Rng::new(seed),
+                );
+                let r = relax(w, h, &s, &Controls::default());
+                let fits = interior_fits(&r);
+                let gbar = fits.iter().map(|f| f.area).sum::<f64>() / fits.len() as f64;
+                let ratio: Vec<f64> = fits.iter().map(|f| f.ellipse.a / f.ellipse.b).collect();
+                let area: Vec<f64> = fits.iter().map(|f| f.area / gbar).collect();
+                let theta: Vec<f64> = fits.iter().map(|f| f.ellipse.theta).collect();
+                let d_ratio = ks(&ex_ratio, &ratio);
+                let d_area = ks(&ex_area, &area);
+                let d_theta = ks(&ex_theta, &theta);
+                let dmean = axial_diff(axial_mean(&ex_theta), axial_mean(&theta)).to_degrees();
+                eprintln!(
+                    "F11 seed {seed} {mode:?}: {} regions, KS a/b {d_ratio:.3}, KS area {d_area:.3}, KS θ {d_theta:.3}, Δ mean θ {dmean:.2}° (sample mean a/b {mean_ratio:.2})",
+                    fits.len()
+                );
+                assert!(d_ratio < 0.2 && d_area < 0.2 && dmean < 10.0);
+                if mean_ratio > 1.3 {
+                    assert!(d_theta < 0.25);
+                }
+            }
+        }
+    }
+
+    /// Banded density map: dark (dense) bands centred on `y = period/2 + k·period`.
+    fn bands(w: usize, h: usize, period: f64) -> Vec<f32> {
+        (0..w * h)
+            .map(|i| {
+                let y = (i / w) as f64 + 0.5;
+                (0.5 + 0.5 * (2.0 * std::f64::consts::PI * (y - period / 2.0) / period).cos() * -1.0) as f32
+            })
+            .collect()
+    }
+
+    /// F12: the density map pulls regions into the dark bands.
+    #[test]
+    fn f12_density_map() {
+        let (w, h) = (480, 480);
+        let period = 96.0;
+        let density = bands(w, h, period);
+        let mut rng = Rng::new(120);
+        let shapes: Vec<Ellipse> = (0..50)
+            .map(|_| {
+                let a = rng.range(7.0, 11.0);
+                Ellipse { center: [0.0, 0.0], a, b: a / rng.range(1.0, 1.6), theta: rng.range(0.0, 3.14) }
+            })
+            .collect();
+        let rbar = 150.0;
+        let dparams = super::super::controls::DensityParams::default();
+        let weight_at = |p: Point| {
+            let l = super::super::controls::sample_bilinear(&density, w, h, p) as f32;
+            super::super::controls::density_weight(l, &dparams) as f64
+        };
+        let mut results = Vec::new();
+        for with_map in [false, true] {
+            let controls = Controls { density: with_map.then_some(&density[..]), ..Default::default() };
+            let mut sampler = EmpiricalSampler::new(&shapes, ShapeSampling::Joint);
+            let s = statistical(
+                w,
+                h,
+                &controls,
+                &mut sampler,
+                CenterSource::Density,
+                &StatisticalParams::new(rbar),
+                &mut Rng::new(121),
+            );
+            let r = relax(w, h, &s, &controls);
+            let fits: Vec<Fit> = fit_regions(&r.labels, r.generators.len()).into_iter().flatten().collect();
+            let mean_w = fits.iter().map(|f| weight_at(f.ellipse.center)).sum::<f64>() / fits.len() as f64;
+            // Folded y histogram of centroids: 8 bins over one period.
+            let mut hist = [0usize; 8];
+            for f in &fits {
+                let phase = (f.ellipse.center[1] / period).fract();
+                hist[((phase * 8.0) as usize).min(7)] += 1;
+            }
+            results.push((mean_w, hist, r.iterations.len()));
+        }
+        let (w0, _, _) = results[0];
+        let (w1, hist, iters) = results[1];
+        let gain = w1 / w0 - 1.0;
+        // Band centre = phase 0.5 → bins 3, 4; trough = phase 0 → bins 7, 0.
+        let peak = (hist[3] + hist[4]) as f64;
+        let trough = (hist[7] + hist[0]).max(1) as f64;
+        eprintln!("F12: mean weight without {w0:.3}, with {w1:.3} (+{:.1} %); folded histogram {hist:?}, peak/trough {:.2}; {iters} iterations", 100.0 * gain, peak / trough);
+        assert!(gain >= 0.25, "gain {gain}");
+        assert!(peak / trough >= 2.0);
+    }
+
+    /// F18: occupancy map: nothing in forbidden pixels, forbidden pixels never reach a
+    /// centroid (probe), N' from the allowed area.
+    #[test]
+    fn f18_occupancy() {
+        let (w, h) = (400, 320);
+        // A window rectangle and a round arch top.
+        let occ: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+                let window = (150.0..250.0).contains(&x) && (120.0..260.0).contains(&y);
+                let arch = (x - 200.0).hypot(y - 120.0) < 50.0;
+                if window || arch {
+                    0.0
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let allowed = allowed_from_occupancy(&occ);
+        let allowed_px = allowed.iter().filter(|&&a| a).count() as f64;
+        let mut rng = Rng::new(180);
+        let shapes = random_ellipses(&mut rng, 40, 10, 10, 8.0, 14.0, 2.0);
+        let controls = Controls { occupancy: Some(&occ), ..Default::default() };
+        let rbar = 260.0;
+        let mut sampler = EmpiricalSampler::new(&shapes, ShapeSampling::Joint);
+        let s = statistical(
+            w,
+            h,
+            &controls,
+            &mut sampler,
+            CenterSource::Density,
+            &StatisticalParams::new(rbar),
+            &mut Rng::new(181),
+        );
+        assert_eq!(s.target_count, (allowed_px / rbar).round() as usize);
+        let r = relax(w, h, &s, &controls);
+        let mut labelled_forbidden = 0;
+        for i in 0..w * h {
+            if !allowed[i] && r.labels.data[i] != NO_REGION {
+                labelled_forbidden += 1;
+            }
+            if allowed[i] {
+                assert_ne!(r.labels.data[i], NO_REGION);
+            }
+        }
+        let gens_forbidden = r.generators.iter().filter(|e| !point_allowed(Some(&allowed), w, h, e.center)).count();
+        eprintln!("F18: N' = {} from {allowed_px} allowed px; labelled forbidden px {labelled_forbidden}; generators in forbidden px {gens_forbidden}; orphans {}", s.target_count, r.orphans.len());
+        assert_eq!(labelled_forbidden, 0);
+        assert_eq!(gens_forbidden, 0);
+        // Probe: density maps that differ only inside the forbidden area give bit-identical
+        // results, so forbidden pixels never contribute to a centroid.
+        let dens_a: Vec<f32> = (0..w * h).map(|i| ((i % w) as f32 / w as f32)).collect();
+        let mut dens_b = dens_a.clone();
+        for i in 0..w * h {
+            if !allowed[i] {
+                dens_b[i] = if (i / w) % 2 == 0 { 0.0 } else { 1.0 };
+            }
+        }
+        // Sampled at half resolution too, the probe must hold for the full-resolution run
+        // (bilinear resampling would mix pixels across the border).
+        let params = LloydParams { max_iters: 10, ..Default::default() };
+        let ca = Controls { density: Some(&dens_a), ..controls };
+        let cb = Controls { density: Some(&dens_b), ..controls };
+        let ra = lloyd(w, h, &s.generators, None, &ca, &params);
+        let rb = lloyd(w, h, &s.generators, None, &cb, &params);
+        assert_eq!(ra, rb);
+        let moved = ra.generators.iter().zip(&s.generators).filter(|(a, b)| a.center != b.center).count();
+        assert!(moved > s.generators.len() / 2);
+        eprintln!(
+            "F18 probe: forbidden-pixel density changes leave all {} generators bit-identical",
+            ra.generators.len()
+        );
+    }
+
+    /// F19: size map (dark half small) and orientation map (constant 45°).
+    #[test]
+    fn f19_size_and_orientation_maps() {
+        let (w, h) = (480, 360);
+        let mut rng = Rng::new(190);
+        let shapes: Vec<Ellipse> = (0..60)
+            .map(|_| {
+                let a = rng.range(10.0, 16.0);
+                Ellipse { center: [0.0; 2], a, b: a / rng.range(1.2, 2.2), theta: rng.range(0.0, std::f64::consts::PI) }
+            })
+            .collect();
+        let rbar = 500.0;
+        // Size map: left half black (k = k_min = 0.3), right half white (k = 1).
+        let size: Vec<f32> = (0..w * h).map(|i| if (i % w) < w / 2 { 0.0 } else { 1.0 }).collect();
+        let controls = Controls { size: Some(&size), k_min: 0.3, ..Default::default() };
+        let mut sampler = EmpiricalSampler::new(&shapes, ShapeSampling::Joint);
+        let s = statistical(
+            w,
+            h,
+            &controls,
+            &mut sampler,
+            CenterSource::Density,
+            &StatisticalParams::new(rbar),
+            &mut Rng::new(191),
+        );
+        let r = relax(w, h, &s, &controls);
+        let fits = interior_fits(&r);
+        let (mut dark, mut light) = (Vec::new(), Vec::new());
+        for f in &fits {
+            if f.ellipse.center[0] < w as f64 / 2.0 {
+                dark.push(f.area)
+            } else {
+                light.push(f.area)
+            }
+        }
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let ratio = mean(&dark) / mean(&light);
+        eprintln!(
+            "F19 size: {} generators, dark mean area {:.1} ({}), light {:.1} ({}), ratio {ratio:.3}",
+            s.generators.len(),
+            mean(&dark),
+            dark.len(),
+            mean(&light),
+            light.len()
+        );
+        assert!(ratio <= 0.7);
+
+        // Orientation: constant 45° field.
+        let t45 = std::f64::consts::FRAC_PI_4;
+        let field = Image::from_fn(w, h, 2, |_, _, c| if c == 0 { t45.cos() as f32 } else { t45.sin() as f32 });
+        let mut spreads = Vec::new();
+        for with_map in [false, true] {
+            let controls = Controls { orientation: with_map.then_some(&field), ..Default::default() };
+            let mut sampler = EmpiricalSampler::new(&shapes, ShapeSampling::Independent);
+            let s = statistical(
+                w,
+                h,
+                &controls,
+                &mut sampler,
+                CenterSource::Density,
+                &StatisticalParams::new(rbar),
+                &mut Rng::new(192),
+            );
+            let r = relax(w, h, &s, &controls);
+            let theta: Vec<f64> =
+                interior_fits(&r).iter().filter(|f| f.anisotropy >= 1.02).map(|f| f.ellipse.theta).collect();
+            let m = axial_mean(&theta);
+            let conc = axial_concentration(&theta);
+            eprintln!(
+                "F19 orientation (map {with_map}): mean θ {:.2}°, concentration {conc:.3} over {} regions",
+                m.to_degrees(),
+                theta.len()
+            );
+            if with_map {
+                assert!(axial_diff(m, t45).to_degrees() < 5.0);
+            }
+            spreads.push(conc);
+        }
+        assert!(spreads[1] > spreads[0], "spread not smaller with the map");
+    }
+}

@@ -1,0 +1,956 @@
+//! Discrete (anisotropic) Voronoi diagrams on a pixel raster (digest 004 §2.5).
+//!
+//! Two modes:
+//!
+//! * [`VoronoiMode::Growth`] (default, as in the thesis): every generator floods outwards from
+//!   its seed pixel through the 8-neighbourhood; one priority queue simulates parallel growth.
+//!   Queue entries are ordered by `(distance, generator id, pixel index)` (distance as `f64`,
+//!   compared by value; all distances are ≥ +0 so the raw bit pattern orders them), so the
+//!   result is fully deterministic. Regions are 8-connected and contain their seed pixel.
+//! * [`VoronoiMode::Argmin`]: every pixel takes the generator with the smallest
+//!   `(distance, id)`. Candidates are pruned per 16×16 tile with exact Euclidean bounds and
+//!   tiles run in parallel (each tile writes its own pixels, so the result does not depend on
+//!   the thread count). Regions can be disconnected.
+//!
+//! Pixel `(x, y)` has its centre at `(x + 0.5, y + 0.5)`; a generator's seed pixel is the pixel
+//! containing its centre (clamped into the raster; a segment uses its midpoint). Forbidden
+//! pixels (`allowed[i] == false`) are never pushed or labelled. A generator whose seed pixel is
+//! forbidden, or already taken by a lower id, gets no region and is reported as an orphan
+//! (in argmin mode: every generator that ends with no pixel).
+//!
+//! The queue is a bucketed priority queue: entries go to buckets by `⌊key / w⌋` and the current
+//! bucket is a binary heap. An entry whose bucket is at or before the current one goes straight
+//! into the heap, where it is smaller than everything still queued in later buckets, so the pop
+//! order is exactly that of one global priority queue (also for non-monotone metrics).
+
+use std::collections::BinaryHeap;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::metric::{segment_distance, EllipseFrame, MetricKind};
+use super::types::{Ellipse, Labels, Point, NO_REGION};
+
+/// A Voronoi generator.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Site {
+    /// An ellipse carrying its own metric (§2.6; kind from the params or the metric map).
+    Ellipse(Ellipse),
+    /// A line segment with the Euclidean point-to-segment distance (Fig. 3.5). Metric kinds do
+    /// not apply to segments.
+    Segment([Point; 2]),
+}
+
+/// How the label raster is computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VoronoiMode {
+    /// Priority-queue growth from the seed pixels (the thesis's flooding).
+    #[default]
+    Growth,
+    /// Per-pixel argmin over all generators.
+    Argmin,
+}
+
+/// The raster the diagram is computed on, with its optional per-pixel maps.
+#[derive(Clone, Copy, Debug)]
+pub struct Domain<'a> {
+    pub width: usize,
+    pub height: usize,
+    /// `false` = forbidden pixel (occupancy map, §2.11 op. 2–3). `None`: all allowed.
+    pub allowed: Option<&'a [bool]>,
+    /// Per-pixel metric kind (§2.11 metric map); the kind at the *pixel* being evaluated is
+    /// used. `None`: [`VoronoiParams::metric`] everywhere.
+    pub metric_map: Option<&'a [MetricKind]>,
+}
+
+impl<'a> Domain<'a> {
+    pub fn new(width: usize, height: usize) -> Self {
+        Domain { width, height, allowed: None, metric_map: None }
+    }
+
+    pub fn with_allowed(mut self, allowed: Option<&'a [bool]>) -> Self {
+        self.allowed = allowed;
+        self
+    }
+
+    pub fn with_metric_map(mut self, metric_map: Option<&'a [MetricKind]>) -> Self {
+        self.metric_map = metric_map;
+        self
+    }
+
+    fn check(&self) {
+        let n = self.width * self.height;
+        assert!(self.width > 0 && self.height > 0, "empty raster");
+        assert!(n < u32::MAX as usize, "raster too large");
+        if let Some(a) = self.allowed {
+            assert_eq!(a.len(), n, "allowed mask size");
+        }
+        if let Some(m) = self.metric_map {
+            assert_eq!(m.len(), n, "metric map size");
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct VoronoiParams {
+    pub mode: VoronoiMode,
+    /// The metric kind used where no metric map is given.
+    pub metric: MetricKind,
+}
+
+/// A label raster (`labels.data[i]` = generator id or [`NO_REGION`]) and the generators that
+/// received no pixel.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Voronoi {
+    pub labels: Labels,
+    /// Generator ids with an empty region, ascending.
+    pub orphans: Vec<usize>,
+}
+
+impl Voronoi {
+    /// Pixel count of each generator's region (`len = generator count`).
+    pub fn region_sizes(&self, generators: usize) -> Vec<usize> {
+        region_sizes(&self.labels, generators)
+    }
+}
+
+/// Pixel count per label `0..n` (labels ≥ n and [`NO_REGION`] are ignored).
+pub fn region_sizes(labels: &Labels, n: usize) -> Vec<usize> {
+    let mut sizes = vec![0usize; n];
+    for &l in &labels.data {
+        if (l as usize) < n {
+            sizes[l as usize] += 1;
+        }
+    }
+    sizes
+}
+
+/// The Voronoi diagram of ellipse generators.
+pub fn voronoi_ellipses(domain: &Domain, ellipses: &[Ellipse], params: &VoronoiParams) -> Voronoi {
+    let mut ws = VoronoiWorkspace::default();
+    let orphans = ws.run_ellipses(domain, ellipses, params);
+    Voronoi { labels: ws.labels(domain), orphans }
+}
+
+/// The Voronoi diagram of mixed ellipse / segment generators.
+pub fn voronoi(domain: &Domain, sites: &[Site], params: &VoronoiParams) -> Voronoi {
+    let mut ws = VoronoiWorkspace::default();
+    let orphans = ws.run_sites(domain, sites, params);
+    Voronoi { labels: ws.labels(domain), orphans }
+}
+
+/// Reusable buffers (Lloyd runs one diagram per iteration on the same raster).
+#[derive(Debug, Default)]
+pub struct VoronoiWorkspace {
+    /// Labels; during a flood also the pixel state: `< PENDING_FLAG` labelled,
+    /// `PENDING_FLAG | g` queued with best generator `g`, `FORBIDDEN`, `NO_REGION` untouched.
+    label: Vec<u32>,
+    /// For queued pixels: an upper bound (`f32` bits, rounded up) of the best queued key. It
+    /// only prunes pushes that cannot pop first; the queue itself orders exact `f64` keys.
+    bound: Vec<u32>,
+    queue: BucketQueue,
+}
+
+/// Label of forbidden pixels during a flood.
+const FORBIDDEN: u32 = u32::MAX - 1;
+/// Marks a pending pixel; the low bits hold the generator of its best queued entry.
+const PENDING_FLAG: u32 = 1 << 31;
+
+impl VoronoiWorkspace {
+    /// The labels of the last run (row-major, `NO_REGION` where unlabelled).
+    pub fn label_data(&self) -> &[u32] {
+        &self.label
+    }
+
+    /// The labels of the last run as a [`Labels`] raster.
+    pub fn labels(&self, domain: &Domain) -> Labels {
+        Labels { width: domain.width, height: domain.height, data: self.label.clone() }
+    }
+
+    /// Computes the diagram of `ellipses`; returns the orphans. Labels stay in the workspace.
+    pub fn run_ellipses(&mut self, domain: &Domain, ellipses: &[Ellipse], params: &VoronoiParams) -> Vec<usize> {
+        domain.check();
+        let frames: Vec<EllipseFrame> = ellipses.iter().map(EllipseFrame::new).collect();
+        let seeds: Vec<usize> = ellipses.iter().map(|e| seed_pixel(domain, e.center)).collect();
+        let scale = key_scale_ellipses(domain, ellipses);
+        match (params.mode, domain.metric_map) {
+            (VoronoiMode::Growth, None) => {
+                let kind = params.metric;
+                let d = |g: usize, _i: usize, x: f64, y: f64| frames[g].distance(kind, x, y);
+                self.flood(domain, &seeds, &[], scale, d)
+            }
+            (VoronoiMode::Growth, Some(map)) => {
+                let d = |g: usize, i: usize, x: f64, y: f64| frames[g].distance(map[i], x, y);
+                self.flood(domain, &seeds, &[], scale, d)
+            }
+            (VoronoiMode::Argmin, _) => {
+                let prepared: Vec<Prepared> = frames.iter().map(|f| Prepared::Ellipse(*f)).collect();
+                self.argmin(domain, &prepared, params.metric)
+            }
+        }
+    }
+
+    /// Computes the diagram of mixed sites; returns the orphans.
+    pub fn run_sites(&mut self, domain: &Domain, sites: &[Site], params: &VoronoiParams) -> Vec<usize> {
+        domain.check();
+        let prepared: Vec<Prepared> = sites.iter().map(Prepared::new).collect();
+        match params.mode {
+            VoronoiMode::Growth => {
+                let seeds: Vec<usize> = sites.iter().map(|s| seed_pixel(domain, site_anchor(s))).collect();
+                let extra = segment_pixels(domain, sites);
+                let scale = key_scale_sites(domain, sites);
+                let kind = params.metric;
+                let map = domain.metric_map;
+                let d = |g: usize, i: usize, x: f64, y: f64| {
+                    let k = map.map_or(kind, |m| m[i]);
+                    prepared[g].distance(k, x, y)
+                };
+                self.flood(domain, &seeds, &extra, scale, d)
+            }
+            VoronoiMode::Argmin => self.argmin(domain, &prepared, params.metric),
+        }
+    }
+
+    /// Growth (flooding) mode. `dist(g, pixel index, x, y)` with `(x, y)` the pixel centre.
+    ///
+    /// `extra` holds further `(pixel, generator)` seeds (the pixels a segment passes through):
+    /// they are queued with their keys after the seed pixels are labelled, so crossing segments
+    /// are resolved by distance.
+    fn flood<D>(
+        &mut self,
+        domain: &Domain,
+        seeds: &[usize],
+        extra: &[(usize, usize)],
+        key_scale: f64,
+        dist: D,
+    ) -> Vec<usize>
+    where
+        D: Fn(usize, usize, f64, f64) -> f64,
+    {
+        let (w, h) = (domain.width, domain.height);
+        assert!(w <= 1 << 16 && h <= 1 << 16, "flooding needs width and height ≤ 65536");
+        assert!(seeds.len() < (FORBIDDEN & !PENDING_FLAG) as usize, "too many generators");
+        self.label.clear();
+        match domain.allowed {
+            None => self.label.resize(w * h, NO_REGION),
+            Some(a) => self.label.extend(a.iter().map(|&ok| if ok { NO_REGION } else { FORBIDDEN })),
+        }
+        self.bound.resize(w * h, 0);
+        self.queue.reset(key_scale);
+        let mut orphans = Vec::new();
+        // 1. Seed pixels, lower ids first.
+        let mut seeded = Vec::with_capacity(seeds.len());
+        for (g, &s) in seeds.iter().enumerate() {
+            if self.label[s] == NO_REGION {
+                self.label[s] = g as u32;
+                seeded.push(g);
+            } else {
+                orphans.push(g);
+            }
+        }
+        // 2. Push the neighbours of every seed (and the extra seeds), then 3. pop until empty.
+        let mut ctx = FloodCtx { w, h, tag: &mut self.label, bound: &mut self.bound, queue: &mut self.queue };
+        for &(p, g) in extra {
+            if ctx.tag[seeds[g]] == g as u32 {
+                ctx.try_push(p % w, p / w, g as u32, &dist);
+            }
+        }
+        for &g in &seeded {
+            ctx.expand(seeds[g] % w, seeds[g] / w, g as u32, &dist);
+        }
+        while let Some(e) = ctx.queue.pop() {
+            let x = (e & 0xFFFF) as usize;
+            let y = ((e >> 16) & 0xFFFF) as usize;
+            let p = y * w + x;
+            if ctx.tag[p] < PENDING_FLAG {
+                continue;
+            }
+            let g = ((e >> 32) & 0xFFFF_FFFF) as u32;
+            // Pops follow key order, which jumps around the flood fronts: prefetch the
+            // neighbourhood of an entry a few pops ahead to overlap the cache misses.
+            if let Some(nx) = ctx.queue.ahead(PREFETCH_AHEAD) {
+                let q = ((nx >> 16) & 0xFFFF) as usize * w + (nx & 0xFFFF) as usize;
+                for r in [q.saturating_sub(w), q, q + w] {
+                    prefetch(ctx.tag, r);
+                    prefetch(ctx.bound, r);
+                }
+            }
+            ctx.tag[p] = g;
+            ctx.expand(x, y, g, &dist);
+        }
+        for l in &mut self.label {
+            if *l >= PENDING_FLAG {
+                *l = NO_REGION;
+            }
+        }
+        orphans
+    }
+
+    fn argmin(&mut self, domain: &Domain, sites: &[Prepared], kind: MetricKind) -> Vec<usize> {
+        let (w, h) = (domain.width, domain.height);
+        self.label.clear();
+        self.label.resize(w * h, NO_REGION);
+        const T: usize = 16;
+        let map = domain.metric_map;
+        let allowed = domain.allowed;
+        // Euclidean bound constants over every kind that can occur.
+        let (klo, khi) = match map {
+            None => kind.euclid_bounds(),
+            Some(_) => (std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::SQRT_2),
+        };
+        self.label.par_chunks_mut(T * w).enumerate().for_each(|(ty, lrows)| {
+            let y0 = ty * T;
+            let y1 = (y0 + T).min(h);
+            let mut lo = vec![0.0f64; sites.len()];
+            let mut cand: Vec<usize> = Vec::with_capacity(sites.len());
+            for x0 in (0..w).step_by(T) {
+                let x1 = (x0 + T).min(w);
+                // Rectangle of pixel centres of this tile.
+                let rect = [x0 as f64 + 0.5, y0 as f64 + 0.5, x1 as f64 - 0.5, y1 as f64 - 0.5];
+                let mut upper = f64::INFINITY;
+                for (g, s) in sites.iter().enumerate() {
+                    let (l, u) = s.bounds(rect, kind, map.is_some(), klo, khi);
+                    lo[g] = l;
+                    upper = upper.min(u);
+                }
+                let upper = upper * (1.0 + 1e-9);
+                cand.clear();
+                cand.extend((0..sites.len()).filter(|&g| lo[g] * (1.0 - 1e-9) <= upper));
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let i = y * w + x;
+                        if allowed.is_some_and(|a| !a[i]) {
+                            continue;
+                        }
+                        let k = map.map_or(kind, |m| m[i]);
+                        let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                        let mut best = f64::INFINITY;
+                        let mut bg = NO_REGION;
+                        for &g in &cand {
+                            let d = sites[g].distance(k, px, py);
+                            if d < best {
+                                best = d;
+                                bg = g as u32;
+                            }
+                        }
+                        lrows[(y - y0) * w + x] = bg;
+                    }
+                }
+            }
+        });
+        let mut sizes = vec![0usize; sites.len()];
+        for &l in &self.label {
+            if l != NO_REGION {
+                sizes[l as usize] += 1;
+            }
+        }
+        sizes.iter().enumerate().filter(|(_, &s)| s == 0).map(|(g, _)| g).collect()
+    }
+}
+
+/// Distance of each labelled pixel to its generator (the Fig. 3.14 distance-field view, "darker
+/// = closer"); `+∞` where unlabelled.
+pub fn distance_field(domain: &Domain, ellipses: &[Ellipse], labels: &Labels, metric: MetricKind) -> Vec<f64> {
+    let frames: Vec<EllipseFrame> = ellipses.iter().map(EllipseFrame::new).collect();
+    labels
+        .data
+        .iter()
+        .enumerate()
+        .map(|(i, &l)| {
+            if (l as usize) < frames.len() {
+                let k = domain.metric_map.map_or(metric, |m| m[i]);
+                let (x, y) = ((i % labels.width) as f64 + 0.5, (i / labels.width) as f64 + 0.5);
+                frames[l as usize].distance(k, x, y)
+            } else {
+                f64::INFINITY
+            }
+        })
+        .collect()
+}
+
+/// Mutable state of one flood, split out so the hot loop borrows fields independently.
+struct FloodCtx<'a> {
+    w: usize,
+    h: usize,
+    tag: &'a mut [u32],
+    bound: &'a mut [u32],
+    queue: &'a mut BucketQueue,
+}
+
+#[inline(always)]
+fn prefetch(v: &[u32], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if i < v.len() {
+        // SAFETY: a prefetch is a hint; the pointer is in bounds.
+        unsafe { std::arch::x86_64::_mm_prefetch(v.as_ptr().add(i) as *const i8, std::arch::x86_64::_MM_HINT_T0) }
+    }
+}
+
+/// The smallest `f32` that is ≥ `k` (for `k ≥ 0`).
+#[inline(always)]
+fn f32_up(k: f64) -> u32 {
+    let f = k as f32;
+    if (f as f64) < k {
+        f.to_bits() + 1
+    } else {
+        f.to_bits()
+    }
+}
+
+impl FloodCtx<'_> {
+    #[inline(always)]
+    fn try_push<D: Fn(usize, usize, f64, f64) -> f64>(&mut self, x: usize, y: usize, g: u32, dist: &D) {
+        let q = y * self.w + x;
+        let t = self.tag[q];
+        if t < PENDING_FLAG || t == FORBIDDEN || t == (PENDING_FLAG | g) {
+            // Labelled, forbidden, or already queued by `g` (the same generator always gives
+            // the same key for the same pixel, so a new entry would be a duplicate).
+            return;
+        }
+        let k = dist(g as usize, q, x as f64 + 0.5, y as f64 + 0.5);
+        let up = f32_up(k);
+        // An entry whose key exceeds the pending bound can never pop first for this pixel
+        // (non-negative f32 bit patterns order like their values).
+        if t == NO_REGION || up <= self.bound[q] {
+            self.tag[q] = PENDING_FLAG | g;
+            self.bound[q] = up;
+            let pix = ((y as u128) << 16) | x as u128;
+            self.queue.push(((k.to_bits() as u128) << 64) | ((g as u128) << 32) | pix, k);
+        }
+    }
+
+    #[inline(always)]
+    fn expand<D: Fn(usize, usize, f64, f64) -> f64>(&mut self, x: usize, y: usize, g: u32, dist: &D) {
+        let (w, h) = (self.w, self.h);
+        if x > 0 && y > 0 && x + 1 < w && y + 1 < h {
+            self.try_push(x - 1, y - 1, g, dist);
+            self.try_push(x, y - 1, g, dist);
+            self.try_push(x + 1, y - 1, g, dist);
+            self.try_push(x - 1, y, g, dist);
+            self.try_push(x + 1, y, g, dist);
+            self.try_push(x - 1, y + 1, g, dist);
+            self.try_push(x, y + 1, g, dist);
+            self.try_push(x + 1, y + 1, g, dist);
+        } else {
+            for dy in -1i64..=1 {
+                for dx in -1i64..=1 {
+                    if dx == 0 && dy == 0 {
+                        continue;
+                    }
+                    let nx = x as i64 + dx;
+                    let ny = y as i64 + dy;
+                    if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                        continue;
+                    }
+                    self.try_push(nx as usize, ny as usize, g, dist);
+                }
+            }
+        }
+    }
+}
+
+/// Bucketed min-priority queue of packed entries `key bits << 64 | id << 32 | pixel`.
+///
+/// Entries go to bucket `⌊key / w⌋`. When a bucket becomes current it is sorted and consumed
+/// in order; entries pushed later into the current (or an earlier) bucket go to a small
+/// binary heap (stored bit-inverted, since `BinaryHeap` is a max-heap), and each pop takes the
+/// smaller of the two heads. Every queued entry in a later bucket has a larger key, so the pop
+/// order is exactly that of one global priority queue.
+#[derive(Debug, Default)]
+struct BucketQueue {
+    buckets: Vec<Vec<u128>>,
+    sorted: Vec<u128>,
+    pos: usize,
+    heap: BinaryHeap<u128>,
+    cur: usize,
+    inv_w: f64,
+}
+
+const MAX_BUCKETS: usize = 1 << 16;
+/// How many pops ahead the flood prefetches.
+const PREFETCH_AHEAD: usize = 0;
+/// Buckets per unit of the typical boundary key.
+const BUCKETS_PER_SCALE: f64 = 4096.0;
+
+impl BucketQueue {
+    fn reset(&mut self, key_scale: f64) {
+        for b in &mut self.buckets {
+            b.clear();
+        }
+        self.sorted.clear();
+        self.pos = 0;
+        self.heap.clear();
+        self.cur = 0;
+        self.inv_w = if key_scale.is_finite() && key_scale > 0.0 { BUCKETS_PER_SCALE / key_scale } else { 1.0 };
+    }
+
+    #[inline(always)]
+    fn push(&mut self, entry: u128, key: f64) {
+        let b = ((key * self.inv_w) as usize).min(MAX_BUCKETS - 1);
+        if b <= self.cur {
+            self.heap.push(!entry);
+        } else {
+            if b >= self.buckets.len() {
+                self.buckets.resize_with(b + 1, Vec::new);
+            }
+            self.buckets[b].push(entry);
+        }
+    }
+
+    /// An entry about `k` pops ahead in the current bucket, if any (a prefetch hint only).
+    #[inline(always)]
+    fn ahead(&self, k: usize) -> Option<u128> {
+        self.sorted.get(self.pos + k).copied()
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<u128> {
+        loop {
+            let s = self.sorted.get(self.pos).copied();
+            let h = self.heap.peek().map(|&x| !x);
+            match (s, h) {
+                (Some(a), Some(b)) => {
+                    if b < a {
+                        self.heap.pop();
+                        return Some(b);
+                    }
+                    self.pos += 1;
+                    return Some(a);
+                }
+                (Some(a), None) => {
+                    self.pos += 1;
+                    return Some(a);
+                }
+                (None, Some(b)) => {
+                    self.heap.pop();
+                    return Some(b);
+                }
+                (None, None) => {
+                    // Advance to the next non-empty bucket, recycling the spent storage.
+                    let mut next = self.cur + 1;
+                    while next < self.buckets.len() && self.buckets[next].is_empty() {
+                        next += 1;
+                    }
+                    if next >= self.buckets.len() {
+                        return None;
+                    }
+                    self.cur = next;
+                    let fresh = std::mem::take(&mut self.buckets[next]);
+                    let mut spent = std::mem::replace(&mut self.sorted, fresh);
+                    spent.clear();
+                    self.buckets[next] = spent;
+                    self.sorted.sort_unstable();
+                    self.pos = 0;
+                }
+            }
+        }
+    }
+}
+
+/// A site prepared for distance evaluation.
+#[derive(Clone, Copy, Debug)]
+enum Prepared {
+    Ellipse(EllipseFrame),
+    Segment([Point; 2]),
+}
+
+impl Prepared {
+    fn new(s: &Site) -> Self {
+        match s {
+            Site::Ellipse(e) => Prepared::Ellipse(EllipseFrame::new(e)),
+            Site::Segment(p) => Prepared::Segment(*p),
+        }
+    }
+
+    #[inline(always)]
+    fn distance(&self, kind: MetricKind, x: f64, y: f64) -> f64 {
+        match self {
+            Prepared::Ellipse(f) => f.distance(kind, x, y),
+            Prepared::Segment([p0, p1]) => segment_distance(*p0, *p1, x, y),
+        }
+    }
+
+    /// Lower and upper bounds of the distance over the rectangle `[x0, y0, x1, y1]`.
+    /// Every distance here is a convex function of the point, so its maximum over the
+    /// rectangle is attained at a corner.
+    fn bounds(&self, r: [f64; 4], kind: MetricKind, mixed: bool, klo: f64, khi: f64) -> (f64, f64) {
+        let corners = [[r[0], r[1]], [r[2], r[1]], [r[0], r[3]], [r[2], r[3]]];
+        match self {
+            Prepared::Ellipse(f) => {
+                let dx = (r[0] - f.cx).max(0.0).max(f.cx - r[2]);
+                let dy = (r[1] - f.cy).max(0.0).max(f.cy - r[3]);
+                let lo = (dx * dx + dy * dy).sqrt() * f.inv_a * klo;
+                let hi = if mixed {
+                    corners.iter().map(|c| (c[0] - f.cx).hypot(c[1] - f.cy)).fold(0.0, f64::max) * f.inv_b * khi
+                } else {
+                    corners.iter().map(|c| f.distance(kind, c[0], c[1])).fold(0.0, f64::max)
+                };
+                (lo, hi)
+            }
+            Prepared::Segment([p0, p1]) => {
+                let bx0 = p0[0].min(p1[0]);
+                let bx1 = p0[0].max(p1[0]);
+                let by0 = p0[1].min(p1[1]);
+                let by1 = p0[1].max(p1[1]);
+                let dx = (r[0] - bx1).max(0.0).max(bx0 - r[2]);
+                let dy = (r[1] - by1).max(0.0).max(by0 - r[3]);
+                let lo = (dx * dx + dy * dy).sqrt();
+                let hi = corners.iter().map(|c| segment_distance(*p0, *p1, c[0], c[1])).fold(0.0, f64::max);
+                (lo, hi)
+            }
+        }
+    }
+}
+
+/// The pixels each segment passes through (sampled every 1/4 px), as `(pixel, generator)`.
+fn segment_pixels(domain: &Domain, sites: &[Site]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for (g, s) in sites.iter().enumerate() {
+        if let Site::Segment([p0, p1]) = s {
+            let len = (p1[0] - p0[0]).hypot(p1[1] - p0[1]);
+            let steps = (len * 4.0).ceil().max(1.0) as usize;
+            let mut last = usize::MAX;
+            for k in 0..=steps {
+                let t = k as f64 / steps as f64;
+                let p = [p0[0] + t * (p1[0] - p0[0]), p0[1] + t * (p1[1] - p0[1])];
+                if p[0] < 0.0 || p[1] < 0.0 || p[0] >= domain.width as f64 || p[1] >= domain.height as f64 {
+                    continue;
+                }
+                let i = seed_pixel(domain, p);
+                if i != last {
+                    out.push((i, g));
+                    last = i;
+                }
+            }
+        }
+    }
+    out
+}
+
+fn site_anchor(s: &Site) -> Point {
+    match s {
+        Site::Ellipse(e) => e.center,
+        Site::Segment([p0, p1]) => [0.5 * (p0[0] + p1[0]), 0.5 * (p0[1] + p1[1])],
+    }
+}
+
+/// The pixel containing `p`, clamped into the raster.
+pub fn seed_pixel(domain: &Domain, p: Point) -> usize {
+    let x = pixel_coord(p[0], domain.width);
+    let y = pixel_coord(p[1], domain.height);
+    y * domain.width + x
+}
+
+#[inline]
+pub(crate) fn pixel_coord(v: f64, n: usize) -> usize {
+    if v.is_nan() || v < 0.0 {
+        0
+    } else {
+        (v.floor() as usize).min(n - 1)
+    }
+}
+
+/// Typical key at region boundaries: the elliptic distance at which the ellipses, grown by a
+/// common factor, would cover the raster (median over generators). Only sets bucket widths.
+fn key_scale_ellipses(domain: &Domain, ellipses: &[Ellipse]) -> f64 {
+    if ellipses.is_empty() {
+        return 1.0;
+    }
+    let area = (domain.width * domain.height) as f64 / ellipses.len() as f64;
+    let mut ks: Vec<f64> =
+        ellipses.iter().map(|e| (area / (std::f64::consts::PI * e.a * e.b)).sqrt()).filter(|k| k.is_finite()).collect();
+    median(&mut ks)
+}
+
+fn key_scale_sites(domain: &Domain, sites: &[Site]) -> f64 {
+    if sites.is_empty() {
+        return 1.0;
+    }
+    let area = (domain.width * domain.height) as f64 / sites.len() as f64;
+    let mut ks: Vec<f64> = sites
+        .iter()
+        .map(|s| match s {
+            Site::Ellipse(e) => (area / (std::f64::consts::PI * e.a * e.b)).sqrt(),
+            Site::Segment(_) => 0.5 * area.sqrt(),
+        })
+        .filter(|k| k.is_finite())
+        .collect();
+    median(&mut ks)
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return 1.0;
+    }
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    *m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::rng::Rng;
+    use std::f64::consts::PI;
+
+    /// Naive per-pixel argmin over all sites (test oracle).
+    fn brute_force(domain: &Domain, sites: &[Site], kind: MetricKind) -> Vec<u32> {
+        let prepared: Vec<Prepared> = sites.iter().map(Prepared::new).collect();
+        let mut out = vec![NO_REGION; domain.width * domain.height];
+        for y in 0..domain.height {
+            for x in 0..domain.width {
+                let i = y * domain.width + x;
+                if domain.allowed.is_some_and(|a| !a[i]) {
+                    continue;
+                }
+                let k = domain.metric_map.map_or(kind, |m| m[i]);
+                let mut best = (f64::INFINITY, NO_REGION);
+                for (g, s) in prepared.iter().enumerate() {
+                    let d = s.distance(k, x as f64 + 0.5, y as f64 + 0.5);
+                    if d < best.0 {
+                        best = (d, g as u32);
+                    }
+                }
+                out[i] = best.1;
+            }
+        }
+        out
+    }
+
+    pub(crate) fn random_ellipses(rng: &mut Rng, n: usize, w: usize, h: usize, amin: f64, amax: f64) -> Vec<Ellipse> {
+        (0..n)
+            .map(|_| {
+                let a = rng.range(amin, amax);
+                let b = a / rng.range(1.0, 3.0);
+                Ellipse {
+                    center: [rng.range(0.0, w as f64), rng.range(0.0, h as f64)],
+                    a,
+                    b,
+                    theta: rng.range(0.0, PI),
+                }
+            })
+            .collect()
+    }
+
+    fn agreement(a: &[u32], b: &[u32]) -> f64 {
+        a.iter().zip(b).filter(|(x, y)| x == y).count() as f64 / a.len() as f64
+    }
+
+    /// Checks 8-connectivity of every region and that it contains its seed pixel.
+    fn regions_connected_with_seed(labels: &Labels, ellipses: &[Ellipse], orphans: &[usize]) -> Result<(), String> {
+        let (w, h) = (labels.width, labels.height);
+        let domain = Domain::new(w, h);
+        let n = ellipses.len();
+        let sizes = region_sizes(labels, n);
+        let mut seen = vec![false; w * h];
+        for (g, e) in ellipses.iter().enumerate() {
+            if orphans.contains(&g) {
+                if sizes[g] != 0 {
+                    return Err(format!("orphan {g} has pixels"));
+                }
+                continue;
+            }
+            let s = seed_pixel(&domain, e.center);
+            if labels.data[s] != g as u32 {
+                return Err(format!("generator {g} not in its seed pixel"));
+            }
+            let mut stack = vec![s];
+            seen[s] = true;
+            let mut count = 0;
+            while let Some(p) = stack.pop() {
+                count += 1;
+                let (x, y) = ((p % w) as i64, (p / w) as i64);
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        let (nx, ny) = (x + dx, y + dy);
+                        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                            continue;
+                        }
+                        let q = ny as usize * w + nx as usize;
+                        if !seen[q] && labels.data[q] == g as u32 {
+                            seen[q] = true;
+                            stack.push(q);
+                        }
+                    }
+                }
+            }
+            if count != sizes[g] {
+                return Err(format!("region {g} not 8-connected: {count} of {}", sizes[g]));
+            }
+        }
+        Ok(())
+    }
+
+    /// F5: Euclidean special case (equal circles): flooding matches brute-force argmin.
+    #[test]
+    fn f5_euclidean_flooding_matches_argmin() {
+        let (w, h) = (256, 192);
+        let domain = Domain::new(w, h);
+        let mut rng = Rng::new(55);
+        let mut worst: f64 = 1.0;
+        for _ in 0..5 {
+            let sites: Vec<Site> = (0..120)
+                .map(|_| {
+                    Site::Ellipse(Ellipse {
+                        center: [rng.range(0.0, w as f64), rng.range(0.0, h as f64)],
+                        a: 10.0,
+                        b: 10.0,
+                        theta: 0.0,
+                    })
+                })
+                .collect();
+            let grow = voronoi(&domain, &sites, &VoronoiParams::default());
+            let brute = brute_force(&domain, &sites, MetricKind::Elliptic);
+            worst = worst.min(agreement(&grow.labels.data, &brute));
+        }
+        eprintln!("F5 euclidean agreement (worst of 5): {:.5}", worst);
+        assert!(worst >= 0.995, "agreement {worst}");
+    }
+
+    /// The tile-pruned argmin mode is exactly the naive argmin (all kinds, masks, maps).
+    #[test]
+    fn argmin_mode_is_exact() {
+        let (w, h) = (150, 110);
+        let mut rng = Rng::new(5);
+        let ellipses = random_ellipses(&mut rng, 60, w, h, 4.0, 20.0);
+        let mut sites: Vec<Site> = ellipses.iter().map(|e| Site::Ellipse(*e)).collect();
+        sites.push(Site::Segment([[10.0, 10.0], [80.0, 40.0]]));
+        let allowed: Vec<bool> = (0..w * h).map(|i| (i % w) < 120 || (i / w) > 30).collect();
+        let map: Vec<MetricKind> = (0..w * h)
+            .map(|i| [MetricKind::Elliptic, MetricKind::Manhattan, MetricKind::Chebyshev][(i % w) * 3 / w])
+            .collect();
+        for kind in [MetricKind::Elliptic, MetricKind::Manhattan, MetricKind::Chebyshev] {
+            for (al, mm) in [(None, None), (Some(&allowed[..]), None), (Some(&allowed[..]), Some(&map[..]))] {
+                let domain = Domain::new(w, h).with_allowed(al).with_metric_map(mm);
+                let params = VoronoiParams { mode: VoronoiMode::Argmin, metric: kind };
+                let fast = voronoi(&domain, &sites, &params);
+                let slow = brute_force(&domain, &sites, kind);
+                assert_eq!(fast.labels.data, slow, "kind {kind:?}");
+            }
+        }
+    }
+
+    /// F5: every region is 8-connected and contains its seed pixel (elliptic metric, random
+    /// ellipses, 100 trials); also all allowed pixels are labelled.
+    #[test]
+    fn f5_regions_connected_and_contain_seed() {
+        let (w, h) = (128, 96);
+        let domain = Domain::new(w, h);
+        let mut rng = Rng::new(500);
+        let mut agree_min: f64 = 1.0;
+        for trial in 0..100 {
+            let n = 10 + rng.below(50);
+            let ellipses = random_ellipses(&mut rng, n, w, h, 3.0, 30.0);
+            let vd = voronoi_ellipses(&domain, &ellipses, &VoronoiParams::default());
+            regions_connected_with_seed(&vd.labels, &ellipses, &vd.orphans)
+                .unwrap_or_else(|e| panic!("trial {trial}: {e}"));
+            // Orphans only from shared seed pixels.
+            for &o in &vd.orphans {
+                let s = seed_pixel(&domain, ellipses[o].center);
+                assert!((0..o).any(|g| seed_pixel(&domain, ellipses[g].center) == s));
+            }
+            assert!(vd.labels.data.iter().all(|&l| l != NO_REGION));
+            let am = voronoi_ellipses(
+                &domain,
+                &ellipses,
+                &VoronoiParams { mode: VoronoiMode::Argmin, ..Default::default() },
+            );
+            agree_min = agree_min.min(agreement(&vd.labels.data, &am.labels.data));
+        }
+        eprintln!("F5 elliptic growth vs argmin agreement (min over 100 trials): {agree_min:.4}");
+    }
+
+    /// F5: segment generators vs the point-to-segment argmin (≥ 99 %).
+    #[test]
+    fn f5_segments_match_argmin() {
+        let (w, h) = (256, 256);
+        let domain = Domain::new(w, h);
+        let mut rng = Rng::new(35);
+        let mut worst: f64 = 1.0;
+        for _ in 0..5 {
+            let sites: Vec<Site> = (0..25)
+                .map(|_| {
+                    let c = [rng.range(0.0, w as f64), rng.range(0.0, h as f64)];
+                    let len = rng.range(5.0, 40.0);
+                    let t = rng.range(0.0, PI);
+                    let d = [0.5 * len * t.cos(), 0.5 * len * t.sin()];
+                    Site::Segment([[c[0] - d[0], c[1] - d[1]], [c[0] + d[0], c[1] + d[1]]])
+                })
+                .collect();
+            let grow = voronoi(&domain, &sites, &VoronoiParams::default());
+            let brute = brute_force(&domain, &sites, MetricKind::Elliptic);
+            worst = worst.min(agreement(&grow.labels.data, &brute));
+        }
+        eprintln!("F5 segment agreement (worst of 5): {worst:.5}");
+        assert!(worst >= 0.99, "agreement {worst}");
+    }
+
+    /// F6: scaling all ellipses by 0.5 and 2 leaves the labels bit-identical in both modes.
+    #[test]
+    fn f6_global_scale_leaves_labels_identical() {
+        let (w, h) = (200, 150);
+        let domain = Domain::new(w, h);
+        let mut rng = Rng::new(66);
+        let ellipses = random_ellipses(&mut rng, 80, w, h, 3.0, 25.0);
+        for mode in [VoronoiMode::Growth, VoronoiMode::Argmin] {
+            for kind in [MetricKind::Elliptic, MetricKind::Manhattan, MetricKind::Chebyshev] {
+                let params = VoronoiParams { mode, metric: kind };
+                let base = voronoi_ellipses(&domain, &ellipses, &params);
+                for k in [0.5, 2.0] {
+                    let scaled: Vec<Ellipse> =
+                        ellipses.iter().map(|e| Ellipse { a: e.a * k, b: e.b * k, ..*e }).collect();
+                    let other = voronoi_ellipses(&domain, &scaled, &params);
+                    assert_eq!(base, other, "mode {mode:?} kind {kind:?} scale {k}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn forbidden_pixels_never_labelled_and_orphans_reported() {
+        let (w, h) = (100, 80);
+        let allowed: Vec<bool> =
+            (0..w * h).map(|i| !((30..60).contains(&(i % w)) && (20..50).contains(&(i / w)))).collect();
+        let domain = Domain::new(w, h).with_allowed(Some(&allowed));
+        let ellipses = vec![
+            Ellipse { center: [10.5, 10.5], a: 8.0, b: 4.0, theta: 0.3 },
+            Ellipse { center: [45.0, 35.0], a: 8.0, b: 4.0, theta: 0.3 }, // forbidden seed
+            Ellipse { center: [80.5, 60.5], a: 8.0, b: 8.0, theta: 0.0 },
+            Ellipse { center: [10.7, 10.2], a: 8.0, b: 4.0, theta: 0.3 }, // shares seed with 0
+        ];
+        for mode in [VoronoiMode::Growth, VoronoiMode::Argmin] {
+            let vd = voronoi_ellipses(&domain, &ellipses, &VoronoiParams { mode, ..Default::default() });
+            for i in 0..w * h {
+                assert_eq!(vd.labels.data[i] == NO_REGION, !allowed[i], "pixel {i}");
+            }
+            if mode == VoronoiMode::Growth {
+                assert_eq!(vd.orphans, vec![1, 3]);
+            }
+        }
+    }
+
+    #[test]
+    fn queue_pops_in_global_order_with_nonmonotone_pushes() {
+        let mut q = BucketQueue::default();
+        q.reset(1.0);
+        let mut rng = Rng::new(1);
+        let mut reference = Vec::new();
+        let mut popped = Vec::new();
+        let mut pending: Vec<u128> = Vec::new();
+        for step in 0..20000u32 {
+            if step % 3 != 2 {
+                let k = rng.range(0.0, 3.0);
+                let e = ((k.to_bits() as u128) << 64) | step as u128;
+                q.push(e, k);
+                pending.push(e);
+            } else if let Some(e) = q.pop() {
+                popped.push(e);
+                let (mi, _) = pending.iter().enumerate().min_by_key(|(_, &v)| v).unwrap();
+                reference.push(pending.swap_remove(mi));
+            }
+        }
+        assert_eq!(popped, reference);
+    }
+}
