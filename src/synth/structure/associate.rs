@@ -133,7 +133,7 @@ fn associate_one(
                 continue;
             }
             let m = best_match(&o.tf, &gen.tf, params.allow_rotation);
-            if best.map_or(true, |b| m.distance < b.1) {
+            if best.is_none_or(|b| m.distance < b.1) {
                 best = Some((i, m.distance, m.shift, m.rotation));
             }
         }
@@ -171,7 +171,7 @@ fn associate_one(
         for (i, o) in orig.iter().enumerate() {
             let Some(o) = o else { continue };
             let d = (o.area - gen.area).abs();
-            if best.map_or(true, |b| d < b.1) {
+            if best.is_none_or(|b| d < b.1) {
                 best = Some((i, d));
             }
         }

@@ -323,7 +323,7 @@ pub fn extract_faces_with(sub: &Subdivision, options: &FaceOptions) -> Faces {
                 if probe[0] < b[0] || probe[0] > b[2] || probe[1] < b[1] || probe[1] > b[3] {
                     continue;
                 }
-                if point_in_polygon(probe, poly) && best.map_or(true, |q| regions[r].area < regions[q].area) {
+                if point_in_polygon(probe, poly) && best.is_none_or(|q| regions[r].area < regions[q].area) {
                     best = Some(r);
                 }
             }

@@ -160,7 +160,7 @@ pub fn ellipses_overlay(labels: &Labels, ellipses: &[Ellipse]) -> Image {
     for i in 0..w * h {
         for ch in 0..3 {
             let v = &mut img.data[ch * w * h + i];
-            *v = *v * (1.0 - outline[i]);
+            *v *= 1.0 - outline[i];
             *v = *v * (1.0 - centres[i]) + centres[i];
         }
     }

@@ -498,7 +498,7 @@ mod tests {
         (0..w * h)
             .map(|i| {
                 let y = (i / w) as f64 + 0.5;
-                (0.5 + 0.5 * (2.0 * std::f64::consts::PI * (y - period / 2.0) / period).cos() * -1.0) as f32
+                (0.5 + -(0.5 * (2.0 * std::f64::consts::PI * (y - period / 2.0) / period).cos())) as f32
             })
             .collect()
     }
@@ -608,7 +608,7 @@ mod tests {
         assert_eq!(gens_forbidden, 0);
         // Probe: density maps that differ only inside the forbidden area give bit-identical
         // results, so forbidden pixels never contribute to a centroid.
-        let dens_a: Vec<f32> = (0..w * h).map(|i| ((i % w) as f32 / w as f32)).collect();
+        let dens_a: Vec<f32> = (0..w * h).map(|i| (i % w) as f32 / w as f32).collect();
         let mut dens_b = dens_a.clone();
         for i in 0..w * h {
             if !allowed[i] {
