@@ -262,13 +262,21 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
 
     // S1: generators.
     let mut inputs = vec![a1, surface];
-    let maps = MapInputs::add(p, props, &mut inputs, &["size", "density"]);
+    // The density map steers sampling only when centres follow it (§10.2: S1 reads the
+    // occupancy, size and, for `centers = density`, density maps).
+    let s1_maps: &[&'static str] =
+        if props.enumeration("centers") == "density" { &["size", "density"] } else { &["size"] };
+    let maps = MapInputs::add(p, props, &mut inputs, s1_maps);
     let s1_params = serde_json::json!({
         "w": w, "h": h, "seed": seed,
         "mode": props.get("mode"), "scale": props.get("scale"), "centers": props.get("centers"),
         "shape_sampling": props.get("shape_sampling"), "perturb": props.get("perturb"), "swaps": props.get("swaps"),
         "size_min": props.get("size_min"), "occupancy_remove": props.get("occupancy_remove"),
-        "density_eps": props.get("density_eps"), "density_gamma": props.get("density_gamma"),
+        "density": if props.enumeration("centers") == "density" {
+            serde_json::json!([props.get("density_eps"), props.get("density_gamma")])
+        } else {
+            serde_json::Value::Null
+        },
     })
     .to_string();
     let opts = SampleOptions::from(props);

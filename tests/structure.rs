@@ -1,0 +1,163 @@
+//! Structure synthesis through the compiler: cache behaviour (F38), determinism (F37),
+//! diagnostics for malformed structure files and mismatched maps.
+
+mod common;
+
+use common::{ran, Project};
+
+fn project(scene: &str) -> Project {
+    let p = Project::new(&[("scene.tess", scene)]);
+    let json = std::fs::read(common::repo().join("samples/standins/wall_random.json")).expect("stand-in");
+    p.write_bytes("wall.json", &json);
+    p
+}
+
+const SCENE: &str = r#"
+scene { seed = 3  size = 192 x 128 }
+sample s { structure = "wall.json" }
+surface t { plane = 192 x 128 }
+map dens { from = linear(from = [0, 0], to = [192, 0]) }
+structure st {
+  from = s
+  on = t
+  density = dens
+  lloyd { iterations = 10 }
+}
+output "labels.png" { from = st }
+output "ellipses.png" {
+  from = st
+  view = ellipses
+}
+"#;
+
+#[test]
+fn a_density_map_change_reruns_lloyd_and_after_but_not_the_analysis() {
+    let p = project(SCENE);
+    p.build_report(&["scene.tess"]).0.ok();
+    p.write("scene.tess", &SCENE.replace("to = [192, 0]", "to = [96, 0]"));
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(
+        ran(&stages),
+        vec!["map dens", "output ellipses.png", "output labels.png", "structure st (lloyd)"],
+        "{stages:?}"
+    );
+}
+
+#[test]
+fn an_output_view_change_reruns_only_that_output() {
+    let p = project(SCENE);
+    p.build_report(&["scene.tess"]).0.ok();
+    p.write("scene.tess", &SCENE.replace("view = ellipses", "view = distance"));
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(ran(&stages), vec!["output ellipses.png"]);
+}
+
+#[test]
+fn structure_outputs_are_deterministic_across_thread_counts() {
+    let a = project(SCENE);
+    let b = project(SCENE);
+    a.tessera(&["-j", "1", "build", "scene.tess"]).ok();
+    b.tessera(&["-j", "2", "build", "scene.tess"]).ok();
+    assert_eq!(common::tree(&a.path("out")), common::tree(&b.path("out")));
+}
+
+fn diagnose(name: &str, structure_json: &str, scene: &str) {
+    let p = Project::new(&[("scene.tess", scene)]);
+    p.write("s.json", structure_json);
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    insta::assert_snapshot!(name, run.stderr());
+}
+
+const USES_S_JSON: &str = r#"
+sample s { structure = "s.json" }
+surface t { plane = 64 x 64 }
+structure st {
+  from = s
+  on = t
+}
+output "a.png" { from = st }
+"#;
+
+#[test]
+fn malformed_json_structure() {
+    diagnose("structure_bad_json", "{ \"vertices\": [[0, 0], [1, 0]\n", USES_S_JSON);
+}
+
+#[test]
+fn crossing_edges() {
+    diagnose(
+        "structure_crossing",
+        r#"{"vertices": [[0,0],[10,10],[10,0],[0,10]], "edges": [[0,1],[2,3]]}"#,
+        USES_S_JSON,
+    );
+}
+
+#[test]
+fn duplicate_vertices() {
+    diagnose(
+        "structure_duplicate_vertices",
+        r#"{"vertices": [[0,0],[10,0],[10,10],[0,0]], "edges": [[0,1],[1,2],[2,3]]}"#,
+        USES_S_JSON,
+    );
+}
+
+#[test]
+fn edge_index_out_of_range() {
+    diagnose("structure_bad_index", r#"{"vertices": [[0,0],[10,0]], "edges": [[0,5]]}"#, USES_S_JSON);
+}
+
+#[test]
+fn empty_structure() {
+    diagnose("structure_empty", r#"{"vertices": [], "edges": []}"#, USES_S_JSON);
+}
+
+#[test]
+fn only_dangling_edges() {
+    diagnose("structure_dangling_only", r#"{"vertices": [[0,0],[10,0],[20,5]], "edges": [[0,1],[1,2]]}"#, USES_S_JSON);
+}
+
+#[test]
+fn no_interior_region() {
+    // One square touching the sample border on every side: nothing left to learn from.
+    diagnose(
+        "structure_no_interior",
+        r#"{"size": [10, 10], "vertices": [[0,0],[10,0],[10,10],[0,10]], "edges": [[0,1],[1,2],[2,3],[3,0]]}"#,
+        USES_S_JSON,
+    );
+}
+
+#[test]
+fn sample_without_structure() {
+    let p = Project::new(&[(
+        "scene.tess",
+        "sample s { image = \"x.png\" }\nsurface t {}\nstructure st {\n  from = s\n  on = t\n}\n",
+    )]);
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    insta::assert_snapshot!("structure_sample_without_file", run.stderr());
+}
+
+#[test]
+fn orientation_map_must_be_a_field() {
+    let scene = USES_S_JSON.replace("  on = t\n", "  on = t\n  orientation = m\n")
+        + "map m { from = constant(1)  size = 64 x 64 }\n";
+    let p = project(&scene);
+    p.write_bytes("s.json", &std::fs::read(common::repo().join("samples/standins/wall_random.json")).unwrap());
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    insta::assert_snapshot!("structure_orientation_not_a_field", run.stderr());
+}
+
+#[test]
+fn view_needs_the_right_file_type() {
+    let scene =
+        USES_S_JSON.replace("output \"a.png\" { from = st }", "output \"a.png\" {\n  from = st\n  view = mesh\n}");
+    let p = project(&scene);
+    p.write_bytes("s.json", &std::fs::read(common::repo().join("samples/standins/wall_random.json")).unwrap());
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    insta::assert_snapshot!("structure_view_file_type", run.stderr());
+}
