@@ -20,13 +20,15 @@ use crate::lang::{Decl, Diagnostic, Props};
 use crate::raster::{self, Image};
 use crate::synth::rng::Rng;
 use crate::synth::structure::controls::{Controls, DensityParams, OrientationMode, RemoveMode};
+use crate::synth::structure::labels_import::rasterize_polygons;
 use crate::synth::structure::lloyd::{self, IterationStats, LloydParams};
 use crate::synth::structure::metric::MetricKind;
+use crate::synth::structure::polygonize::{self, Polygonization, PolygonizeParams};
 use crate::synth::structure::sample::{analyse_sample, SampleStructure};
 use crate::synth::structure::stats::{EllipseFit, StatsConfig};
 use crate::synth::structure::synthesis::{self, CenterSource, EmpiricalSampler, ShapeSampling, StatisticalParams};
 use crate::synth::structure::voronoi::{self, Domain};
-use crate::synth::structure::{render, Ellipse, Labels};
+use crate::synth::structure::{render, Ellipse, Labels, Mesh, Point};
 use crate::synth::surface::Plane;
 
 pub use super::structure_spec::SPEC;
@@ -285,9 +287,34 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
 
     // S2: Lloyd.
     let s2 = plan_lloyd(p, d, s1, surface, w, h, "lloyd");
+
+    // S3: polygonisation of the label raster.
+    let block = props.block("polygonize");
+    let pparams = PolygonizeParams {
+        tolerance: block.num("tolerance"),
+        min_edge: block.num("min_edge"),
+        straight_deg: block.num("straight").to_degrees(),
+    };
+    let s3 = FnStage::new("structure.polygonize", 1, serde_json::to_string(&pparams).expect("params"), move |cx| {
+        let r = cx.input::<Relaxed>(0);
+        Ok(polygonize::polygonize(&r.labels, &pparams))
+    });
+    let s3 = p.add(format!("structure {} (polygonize)", d.name), s3, vec![s2], vec![]);
+
     p.parts.insert((d.name.clone(), "lloyd"), s2);
     p.parts.insert((d.name.clone(), "analysis"), a1);
-    Ok(s2)
+    p.parts.insert((d.name.clone(), "mesh"), s3);
+    Ok(s3)
+}
+
+impl Encoded for Polygonization {
+    fn encode(&self) -> Vec<u8> {
+        serde_json::to_vec(self).expect("mesh serialises")
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        serde_json::from_slice(bytes).map_err(|e| e.to_string())
+    }
 }
 
 /// What S1 needs from the declaration.
@@ -527,25 +554,59 @@ pub fn plan_output(
             .with_label(d.name_span, "this file"));
     }
     let lloyd = p.part(structure, "lloyd").expect("structures plan a Lloyd stage");
+    let mesh = p.part(structure, "mesh").expect("structures plan a mesh stage");
     let params =
         serde_json::json!({ "view": view, "format": format!("{format:?}"), "edge_width": edge_width }).to_string();
     let view_name = view.to_string();
     let metric = metric_kind(p.decl(structure).props.enumeration("metric"));
-    let stage = FnStage::new("structure.view", 1, params, move |cx| {
-        let r = cx.input::<Relaxed>(0);
-        let img = match view_name.as_str() {
-            "labels" => render::labels_colour(&r.labels),
-            "labels16" => render::labels_u16(&r.labels)
-                .ok_or_else(|| StageError::new("more than 65534 regions do not fit a 16-bit PNG"))?,
-            "ellipses" => render::ellipses_overlay(&r.labels, &r.generators),
-            "distance" => distance_view(&r, metric),
-            other => unreachable!("view `{other}` is planned elsewhere"),
-        };
-        encode_image(&img, format)
-    });
-    Ok(p.add(format!("output {}", d.name), stage, vec![lloyd], vec![]))
+    let label = format!("output {}", d.name);
+    let node = match view {
+        // Views of the relaxed generators and their label raster.
+        "ellipses" | "distance" => {
+            let stage = FnStage::new("structure.view", 1, params, move |cx| {
+                let r = cx.input::<Relaxed>(0);
+                let img = match view_name.as_str() {
+                    "ellipses" => render::ellipses_overlay(&r.labels, &r.generators),
+                    _ => distance_view(&r, metric),
+                };
+                encode_image(&img, format)
+            });
+            p.add(label, stage, vec![lloyd], vec![])
+        }
+        // Views of the final mesh.
+        _ => {
+            let stage = FnStage::new("structure.view", 1, params, move |cx| {
+                let m = cx.input::<Polygonization>(0);
+                let r = cx.input::<Relaxed>(1);
+                mesh_view(&view_name, &m.mesh, r.labels.width, r.labels.height, edge_width, format)
+            });
+            p.add(label, stage, vec![mesh, lloyd], vec![])
+        }
+    };
+    Ok(node)
 }
 
+fn mesh_view(
+    view: &str,
+    mesh: &Mesh,
+    w: usize,
+    h: usize,
+    edge_width: f64,
+    format: OutputFormat,
+) -> Result<Bytes, StageError> {
+    let polygons =
+        || -> Vec<Vec<Point>> { mesh.regions.iter().map(|r| r.iter().map(|&i| mesh.vertices[i]).collect()).collect() };
+    let img = match view {
+        "mesh" => return Ok(Bytes(render::mesh_json(mesh, w, h).into_bytes())),
+        "svg" => return Ok(Bytes(render::mesh_svg(mesh, w, h, edge_width).into_bytes())),
+        "edges" => render::edges_raster(mesh, w, h, edge_width),
+        "labels" => render::labels_colour(&rasterize_polygons(&polygons(), w, h)),
+        "labels16" => render::labels_u16(&rasterize_polygons(&polygons(), w, h))
+            .ok_or_else(|| StageError::new("more than 65534 regions do not fit a 16-bit PNG"))?,
+        other => return Err(StageError::new(format!("the `{other}` view is not available yet"))),
+    };
+    encode_image(&img, format)
+}
 /// Distance of each pixel to its region's generator, 0 (black) at the generator and 1 at
 /// the farthest labelled pixel; the Fig. 3.14 view.
 fn distance_view(r: &Relaxed, metric: MetricKind) -> Image {

@@ -8,6 +8,7 @@ pub mod format;
 pub mod labels_import;
 pub mod lloyd;
 pub mod metric;
+pub mod polygonize;
 pub mod render;
 pub mod sample;
 pub mod standins;
