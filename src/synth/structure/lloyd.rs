@@ -23,10 +23,10 @@
 //! Convergence: stop after the first iteration whose mean displacement of the non-frozen
 //! generators (full-resolution pixels) is below `tol`, or after `max_iters` iterations.
 //!
-//! Determinism: the flood is sequential; centroid, covariance and orientation sums are
-//! integers (pixel coordinates doubled, weights quantised to `0..=65535`), and the energy is
-//! summed per 16-row chunk and then over chunks in order, so results are bit-identical for any
-//! rayon thread count.
+//! Determinism: the flood is sequential; centroid, covariance, orientation and energy sums are
+//! integers (pixel coordinates doubled, weights quantised to `0..=65535`) added in any order,
+//! and the energy is then evaluated per region in id order, so results are bit-identical for
+//! any rayon thread count.
 //!
 //! A generator whose region is empty (an *orphan*: its seed pixel is forbidden or shared with a
 //! lower id) stays where it is; the final orphans are reported and, with `drop_orphans`,
@@ -36,8 +36,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::controls::{
-    density_weight, doubled_angle_field, orientation_at, quantize_weight, resample_bilinear, resample_nearest,
-    size_factor, Controls, OrientationMode,
+    density_weight, doubled_angle_field, orientation_at, point_allowed, quantize_weight, resample_bilinear,
+    resample_nearest, size_factor, Controls, OrientationMode,
 };
 use super::metric::{wrap_axial, MetricKind};
 use super::types::{Ellipse, Labels, NO_REGION};
@@ -105,6 +105,8 @@ struct Acc {
     sw: u64,
     swx: u64,
     swy: u64,
+    /// `Σ w·(X² + Y²)` (for the energy).
+    swrr: u128,
     n: u64,
     sx: u64,
     sy: u64,
@@ -128,6 +130,7 @@ impl Acc {
         self.sw += o.sw;
         self.swx += o.swx;
         self.swy += o.swy;
+        self.swrr += o.swrr;
         self.n += o.n;
         self.sx += o.sx;
         self.sy += o.sy;
@@ -161,7 +164,7 @@ impl Acc {
 
 /// Scale of the orientation doubled-angle vectors before rounding to integers.
 const ORIENT_Q: f32 = 32768.0;
-/// Rows per accumulation chunk (fixed, so the energy sum order does not depend on threads).
+/// Rows per accumulation chunk.
 const CHUNK_ROWS: usize = 16;
 
 /// Per-raster inputs of the iterations.
@@ -232,6 +235,7 @@ pub fn lloyd(
             .collect()
     };
 
+    let mut had_region = vec![false; n];
     for _ in 0..params.max_iters {
         let eff = effective(&gens, sx, sy);
         let domain = Domain::new(lw, lh).with_allowed(grid.allowed.as_deref()).with_metric_map(grid.metric.as_deref());
@@ -246,6 +250,7 @@ pub fn lloyd(
             if acc.n == 0 {
                 orphans += 1;
             }
+            had_region[g] = acc.n > 0;
             if frozen[g] {
                 continue;
             }
@@ -292,6 +297,19 @@ pub fn lloyd(
         }
     }
 
+    // At reduced resolution a centroid can sit in an allowed coarse pixel whose full-resolution
+    // pixel is forbidden: move such (moved, non-frozen) generators to the nearest allowed pixel.
+    if let (Some(a), true) = (&full_allowed, lw != width || lh != height) {
+        for g in 0..n {
+            if had_region[g] && !frozen[g] && !point_allowed(Some(a), width, height, gens[g].center) {
+                let radius = (2.0 / params.resolution).ceil() as usize + 1;
+                if let Some(p) = nearest_allowed(a, width, height, gens[g].center, radius) {
+                    gens[g].center = p;
+                }
+            }
+        }
+    }
+
     // Final labels at full resolution.
     let eff = effective(&gens, 1.0, 1.0);
     let domain = Domain::new(width, height).with_allowed(full_allowed.as_deref()).with_metric_map(controls.metric);
@@ -328,12 +346,11 @@ pub fn lloyd(
 fn accumulate(grid: &Grid, labels: &[u32], eff: &[Ellipse]) -> (Vec<Acc>, f64) {
     let n = eff.len();
     let w = grid.w;
-    let chunks: Vec<(Vec<Acc>, f64)> = labels
+    let chunks: Vec<Vec<Acc>> = labels
         .par_chunks(CHUNK_ROWS * w)
         .enumerate()
         .map(|(ci, rows)| {
             let mut acc = vec![Acc::empty(); n];
-            let mut energy = 0.0f64;
             let y0 = ci * CHUNK_ROWS;
             for (ry, row) in rows.chunks(w).enumerate() {
                 let y = y0 + ry;
@@ -355,6 +372,7 @@ fn accumulate(grid: &Grid, labels: &[u32], eff: &[Ellipse]) -> (Vec<Acc>, f64) {
                     a.sxx += xx * xx;
                     a.sxy += xx * yy;
                     a.syy += yy * yy;
+                    a.swrr += (wq * (xx * xx + yy * yy)) as u128;
                     if let Some((c2, s2)) = &grid.orient {
                         a.oc += c2[i] as i64;
                         a.os += s2[i] as i64;
@@ -363,27 +381,53 @@ fn accumulate(grid: &Grid, labels: &[u32], eff: &[Ellipse]) -> (Vec<Acc>, f64) {
                     a.x1 = a.x1.max(x as u32);
                     a.y0 = a.y0.min(y as u32);
                     a.y1 = a.y1.max(y as u32);
-                    let c = eff[l as usize].center;
-                    let dx = x as f64 + 0.5 - c[0];
-                    let dy = y as f64 + 0.5 - c[1];
-                    let wf = if grid.weights.is_some() { wq as f64 / 65535.0 } else { 1.0 };
-                    energy += wf * (dx * dx + dy * dy);
                 }
             }
-            (acc, energy)
+            acc
         })
         .collect();
     let mut total = vec![Acc::empty(); n];
-    let mut energy = 0.0;
-    for (acc, e) in &chunks {
+    for acc in &chunks {
         for (t, a) in total.iter_mut().zip(acc) {
             if a.n > 0 {
                 t.merge(a);
             }
         }
-        energy += e;
+    }
+    // Energy from the exact integer moments, region by region in id order:
+    // Σ w‖p − c‖² = ¼Σw(X² + Y²) − c·ΣwP + ‖c‖²Σw with P = (X, Y)/2.
+    let scale = if grid.weights.is_some() { 1.0 / 65535.0 } else { 1.0 };
+    let mut energy = 0.0;
+    for (a, e) in total.iter().zip(eff) {
+        if a.n == 0 {
+            continue;
+        }
+        let c = e.center;
+        let sum = 0.25 * a.swrr as f64 - c[0] * a.swx as f64 - c[1] * a.swy as f64
+            + (c[0] * c[0] + c[1] * c[1]) * a.sw as f64;
+        energy += scale * sum;
     }
     (total, energy)
+}
+
+/// The centre of the allowed pixel nearest to `c` within `radius` pixels (ties: lowest index).
+fn nearest_allowed(allowed: &[bool], w: usize, h: usize, c: [f64; 2], radius: usize) -> Option<[f64; 2]> {
+    let cx = (c[0].floor() as i64).clamp(0, w as i64 - 1);
+    let cy = (c[1].floor() as i64).clamp(0, h as i64 - 1);
+    let r = radius as i64;
+    let mut best: Option<(f64, [f64; 2])> = None;
+    for y in (cy - r).max(0)..=(cy + r).min(h as i64 - 1) {
+        for x in (cx - r).max(0)..=(cx + r).min(w as i64 - 1) {
+            if allowed[y as usize * w + x as usize] {
+                let p = [x as f64 + 0.5, y as f64 + 0.5];
+                let d = (p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2);
+                if best.is_none_or(|b| d < b.0) {
+                    best = Some((d, p));
+                }
+            }
+        }
+    }
+    best.map(|b| b.1)
 }
 
 /// The centre of the pixel of region `g` nearest to `c` (ties: lowest pixel index).

@@ -1175,6 +1175,8 @@ mod tests {
         bridge_edges: usize,
         bad_edges: usize,
         worst_area_excess: f64,
+        /// Largest |area − pixel count| / (0.5·perimeter + 4).
+        worst_area_ratio: f64,
         euler_lhs: i64,
         euler_rhs: i64,
         shortest: f64,
@@ -1229,6 +1231,7 @@ mod tests {
             let per: f64 = (0..r.len()).map(|k| dist2(m.vertices[r[k]], m.vertices[r[(k + 1) % r.len()]]).sqrt()).sum();
             let px = count[&p.region_labels[ri]];
             rep.worst_area_excess = rep.worst_area_excess.max((area - px).abs() - (0.5 * per + 4.0));
+            rep.worst_area_ratio = rep.worst_area_ratio.max((area - px).abs() / (0.5 * per + 4.0));
             // Simple (weakly): non-adjacent edges of a ring do not cross.
             for i in 0..r.len() {
                 for j in i + 2..r.len() {
@@ -1267,14 +1270,14 @@ mod tests {
     fn assert_f13(name: &str, p: &Polygonization, labels: &Labels, holes: i64, params: &PolygonizeParams) {
         let r = check(p, labels, holes);
         eprintln!(
-            "F13 {name}: {} regions, {} vertices, {} interior / {} border / {} bridge edges, bad {}, worst area excess {:.2}, Euler {} = {}, shortest {:.3}, valency-4 {}, self conflicts {}, short kept {}, relabelled {}",
+            "F13 {name}: {} regions, {} vertices, {} interior / {} border / {} bridge edges, bad {}, worst |area - px| / (0.5 per + 4) {:.3}, Euler {} = {}, shortest {:.3}, valency-4 {}, self conflicts {}, short kept {}, relabelled {}",
             p.mesh.regions.len(),
             p.mesh.vertices.len(),
             r.interior_edges,
             r.border_edges,
             r.bridge_edges,
             r.bad_edges,
-            r.worst_area_excess,
+            r.worst_area_ratio,
             r.euler_lhs,
             r.euler_rhs,
             r.shortest,
