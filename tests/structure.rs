@@ -39,7 +39,13 @@ fn a_density_map_change_reruns_lloyd_and_after_but_not_the_analysis() {
     run.ok();
     assert_eq!(
         ran(&stages),
-        vec!["map dens", "output ellipses.png", "output labels.png", "structure st (lloyd)"],
+        vec![
+            "map dens",
+            "output ellipses.png",
+            "output labels.png",
+            "structure st (lloyd)",
+            "structure st (polygonize)"
+        ],
         "{stages:?}"
     );
 }
@@ -160,4 +166,39 @@ fn view_needs_the_right_file_type() {
     let run = p.tessera(&["build", "scene.tess"]);
     run.failed();
     insta::assert_snapshot!("structure_view_file_type", run.stderr());
+}
+
+#[test]
+fn an_edit_change_reruns_the_edits_and_what_follows_only() {
+    let scene = SCENE.replace("  lloyd { iterations = 10 }", "  lloyd { iterations = 10 }\n  edits = [delete(id = 3)]");
+    let p = project(&scene);
+    p.build_report(&["scene.tess"]).0.ok();
+    p.write("scene.tess", &scene.replace("delete(id = 3)", "delete(id = 4)"));
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(
+        ran(&stages),
+        vec![
+            "output ellipses.png",
+            "output labels.png",
+            "structure st (edits)",
+            "structure st (lloyd after edits)",
+            "structure st (polygonize)"
+        ]
+    );
+}
+
+#[test]
+fn edits_naming_missing_regions_are_diagnosed() {
+    let scene =
+        SCENE.replace("  lloyd { iterations = 10 }", "  lloyd { iterations = 10 }\n  edits = [freeze(id = 5000)]");
+    let p = project(&scene);
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    insta::assert_snapshot!("structure_edit_missing_region", run.stderr());
+    let scene = SCENE.replace("  lloyd { iterations = 10 }", "  lloyd { iterations = 10 }\n  edits = [delete()]");
+    let p = project(&scene);
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    assert!(run.stderr().contains("`delete` takes either `id` or `at`"), "{}", run.stderr());
 }

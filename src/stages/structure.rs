@@ -19,7 +19,8 @@ use crate::graph::{NodeId, RunCx, StageError};
 use crate::lang::{Decl, Diagnostic, Props};
 use crate::raster::{self, Image};
 use crate::synth::rng::Rng;
-use crate::synth::structure::controls::{Controls, DensityParams, OrientationMode, RemoveMode};
+use crate::synth::structure::controls::{allowed_from_occupancy, Controls, DensityParams, OrientationMode, RemoveMode};
+use crate::synth::structure::edits::{self, Edit, Target};
 use crate::synth::structure::labels_import::rasterize_polygons;
 use crate::synth::structure::lloyd::{self, IterationStats, LloydParams};
 use crate::synth::structure::metric::MetricKind;
@@ -285,8 +286,29 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let s1 = FnStage::new("structure.sample", 1, s1_params, move |cx| sample_generators(cx, &opts, maps, w, h, seed));
     let s1 = p.add(format!("structure {} (sampling)", d.name), s1, inputs, vec![]);
 
-    // S2: Lloyd.
-    let s2 = plan_lloyd(p, d, s1, surface, w, h, "lloyd");
+    // S2: Lloyd; with edits, S1e applies them to the relaxed generators and Lloyd runs
+    // again from there (digest §2.10: edits act on the current state).
+    let mut s2 = plan_lloyd(p, d, s1, surface, w, h, "lloyd");
+    let edits = convert_edits(props)?;
+    if !edits.is_empty() {
+        let key = serde_json::to_string(&edits).expect("edits serialise");
+        let s1e = FnStage::new("structure.edits", 1, key, move |cx| {
+            let r = cx.input::<Relaxed>(0);
+            let plane = cx.input::<Plane>(1);
+            let allowed = allowed_from_occupancy(plane.occupancy.plane(0));
+            let target = Target { width: w, height: h, allowed: Some(&allowed) };
+            let mut g = edits::Generators { ellipses: r.generators.clone(), frozen: r.frozen.clone() };
+            for (i, e) in edits.iter().enumerate() {
+                edits::apply_edit(&mut g, e, &target).map_err(|err| {
+                    StageError::new(format!("edit {} ({}): {err}", i + 1, edit_name(e))).at_prop("edits")
+                })?;
+            }
+            let n = g.ellipses.len();
+            Ok(Generators { ellipses: g.ellipses, frozen: g.frozen, target_count: n, dropped: 0 })
+        });
+        let s1e = p.add(format!("structure {} (edits)", d.name), s1e, vec![s2, surface], vec![]);
+        s2 = plan_lloyd(p, d, s1e, surface, w, h, "lloyd after edits");
+    }
 
     // S3: polygonisation of the label raster.
     let block = props.block("polygonize");
@@ -315,6 +337,48 @@ impl Encoded for Polygonization {
     fn decode(bytes: &[u8]) -> Result<Self, String> {
         serde_json::from_slice(bytes).map_err(|e| e.to_string())
     }
+}
+
+fn edit_name(e: &Edit) -> &'static str {
+    match e {
+        Edit::Insert { .. } => "insert",
+        Edit::Delete { .. } | Edit::DeleteAt { .. } => "delete",
+        Edit::Freeze { .. } => "freeze",
+        Edit::Move { .. } => "move",
+        Edit::Set { .. } => "set",
+    }
+}
+
+/// The declaration's `edits` as algorithm edits; arguments that do not fit together are
+/// reported at the call that wrote them.
+fn convert_edits(props: &Props) -> Result<Vec<Edit>, Diagnostic> {
+    let mut out = Vec::new();
+    for call in props.calls("edits") {
+        let a = &call.args;
+        let id = || a.int("id") as usize;
+        let at = |n: &str| -> Point { a.vec2(n) };
+        let edit = match call.name.as_str() {
+            "insert" => Edit::Insert {
+                ellipse: Ellipse { center: at("at"), a: a.num("a"), b: a.num("b"), theta: a.num("angle") },
+                frozen: false,
+            },
+            "delete" => match (a.get("id").is_some(), a.get("at").is_some()) {
+                (true, false) => Edit::Delete { id: id() },
+                (false, true) => Edit::DeleteAt { point: at("at") },
+                _ => {
+                    let span = call.span.or(props.span("edits")).expect("edits are written in the scene");
+                    return Err(Diagnostic::error("`delete` takes either `id` or `at`")
+                        .with_code("tessera::edit")
+                        .with_label(span, "give exactly one of them"));
+                }
+            },
+            "freeze" => Edit::Freeze { id: id(), frozen: true },
+            "move" => Edit::Move { id: id(), to: at("to") },
+            _ => Edit::Set { id: id(), a: a.opt_num("a"), b: a.opt_num("b"), theta: a.opt_num("angle") },
+        };
+        out.push(edit);
+    }
+    Ok(out)
 }
 
 /// What S1 needs from the declaration.

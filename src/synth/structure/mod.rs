@@ -2,6 +2,7 @@
 //! anisotropic Lloyd synthesis steered by control maps, polygonisation, shape optimisation.
 pub mod associate;
 pub mod controls;
+pub mod edits;
 pub mod ellipse;
 pub mod faces;
 pub mod format;
