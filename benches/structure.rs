@@ -9,7 +9,9 @@ use tessera::synth::structure::lloyd::{lloyd, LloydParams};
 use tessera::synth::structure::polygonize::{polygonize, PolygonizeParams};
 use tessera::synth::structure::sample::analyse_sample;
 use tessera::synth::structure::stats::StatsConfig;
-use tessera::synth::structure::synthesis::{statistical, CenterSource, EmpiricalSampler, ShapeSampling, StatisticalParams};
+use tessera::synth::structure::synthesis::{
+    statistical, CenterSource, EmpiricalSampler, ShapeSampling, StatisticalParams,
+};
 use tessera::synth::structure::voronoi::{voronoi_ellipses, Domain, VoronoiMode, VoronoiParams};
 use tessera::synth::structure::Ellipse;
 
@@ -25,15 +27,8 @@ fn generators() -> Vec<Ellipse> {
     let scale = ((SIZE * SIZE) as f64 / (300.0 * mean)).sqrt();
     let params = StatisticalParams { scale, ..StatisticalParams::new(mean) };
     let mut sampler = EmpiricalSampler::new(&originals, ShapeSampling::Independent);
-    let s = statistical(
-        SIZE,
-        SIZE,
-        &Controls::default(),
-        &mut sampler,
-        CenterSource::Uniform,
-        &params,
-        &mut Rng::new(7),
-    );
+    let s =
+        statistical(SIZE, SIZE, &Controls::default(), &mut sampler, CenterSource::Uniform, &params, &mut Rng::new(7));
     assert_eq!(s.generators.len(), 300);
     s.generators
 }
@@ -58,7 +53,9 @@ fn bench(c: &mut Criterion) {
         });
     }
     let relaxed = lloyd(SIZE, SIZE, &gens, None, &Controls::default(), &LloydParams::default());
-    group.bench_function("polygonize_1024_300", |b| b.iter(|| polygonize(&relaxed.labels, &PolygonizeParams::default())));
+    group.bench_function("polygonize_1024_300", |b| {
+        b.iter(|| polygonize(&relaxed.labels, &PolygonizeParams::default()))
+    });
     group.finish();
 }
 

@@ -173,6 +173,7 @@ fn build(cli: &Cli, p: &Project, paths: &[PathBuf], mode: Mode) -> CmdResult {
                 continue;
             }
         };
+        print_warnings(&built.report);
         if !cli.quiet {
             let ran = built.report.ran().count();
             let written = emitted.iter().filter(|e| e.written).count();
@@ -239,6 +240,14 @@ fn build(cli: &Cli, p: &Project, paths: &[PathBuf], mode: Mode) -> CmdResult {
     }
 }
 
+fn print_warnings(report: &tessera::graph::Report) {
+    for s in &report.stages {
+        for w in &s.warnings {
+            eprintln!("warning: {}: {w}", s.label);
+        }
+    }
+}
+
 fn print_check_table(rows: &[project::CheckRow]) {
     println!(
         "\n{:<6} {:<20} {:<28} {:>10} {:>10} {:>14}",
@@ -276,6 +285,7 @@ fn watch(cli: &Cli, p: &mut Project, scene: &Path, debounce: Duration) {
     project::watch(p, scene, debounce, |ev| {
         match ev {
             WatchEvent::Built { built, emitted, millis } => {
+                print_warnings(&built.report);
                 if !quiet {
                     let ran: Vec<String> = built
                         .report

@@ -44,7 +44,8 @@ fn a_density_map_change_reruns_lloyd_and_after_but_not_the_analysis() {
             "output ellipses.png",
             "output labels.png",
             "structure st (lloyd)",
-            "structure st (polygonize)"
+            "structure st (polygonize)",
+            "structure st (shapes)"
         ],
         "{stages:?}"
     );
@@ -183,7 +184,8 @@ fn an_edit_change_reruns_the_edits_and_what_follows_only() {
             "output labels.png",
             "structure st (edits)",
             "structure st (lloyd after edits)",
-            "structure st (polygonize)"
+            "structure st (polygonize)",
+            "structure st (shapes)"
         ]
     );
 }
@@ -201,4 +203,62 @@ fn edits_naming_missing_regions_are_diagnosed() {
     let run = p.tessera(&["build", "scene.tess"]);
     run.failed();
     assert!(run.stderr().contains("`delete` takes either `id` or `at`"), "{}", run.stderr());
+}
+
+#[test]
+fn an_edge_width_change_reruns_only_that_output() {
+    let scene = SCENE.to_string() + "output \"edges.png\" {\n  from = st\n  view = edges\n  edge_width = 1 px\n}\n";
+    let p = project(&scene);
+    p.build_report(&["scene.tess"]).0.ok();
+    p.write("scene.tess", &scene.replace("edge_width = 1 px", "edge_width = 3 px"));
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(ran(&stages), vec!["output edges.png"]);
+}
+
+#[test]
+fn a_painted_label_image_is_a_structure_sample() {
+    // Two colours of stripes and a block: the importer traces their boundaries.
+    let (w, h) = (96, 64);
+    let img = tessera::raster::Image::from_fn(w, h, 3, |x, y, c| {
+        let cell = (x / 24 + 4 * (y / 16)) as f32;
+        [cell / 16.0, (cell * 7.0 % 16.0) / 16.0, 0.5][c]
+    });
+    let png = tessera::raster::io::encode_png(&img, 8).unwrap();
+    let scene = "sample s { structure = \"cells.png\" }\nsurface t { plane = 96 x 64 }\nstructure st {\n  from = s\n  on = t\n  lloyd { iterations = 5 }\n}\noutput \"m.json\" { from = st }\n";
+    let p = Project::new(&[("scene.tess", scene)]);
+    p.write_bytes("cells.png", &png);
+    p.tessera(&["build", "scene.tess"]).ok();
+    let mesh = String::from_utf8(p.read("out/scene/m.json")).unwrap();
+    assert!(mesh.contains("\"regions\""));
+}
+
+#[test]
+fn pruned_dangling_edges_are_reported() {
+    // A 3 × 3 grid of cells (the middle one is interior) plus a dangling spur inside it.
+    let mut vertices: Vec<String> = Vec::new();
+    let mut edges: Vec<String> = Vec::new();
+    for j in 0..4 {
+        for i in 0..4 {
+            vertices.push(format!("[{}, {}]", 5 + 10 * i, 5 + 10 * j));
+            if i < 3 {
+                edges.push(format!("[{}, {}]", 4 * j + i, 4 * j + i + 1));
+            }
+            if j < 3 {
+                edges.push(format!("[{}, {}]", 4 * j + i, 4 * (j + 1) + i));
+            }
+        }
+    }
+    vertices.push("[18, 18]".into());
+    edges.push("[5, 16]".into());
+    let json = format!(r#"{{"size": [40, 40], "vertices": [{}], "edges": [{}]}}"#, vertices.join(","), edges.join(","));
+    let p = Project::new(&[("scene.tess", USES_S_JSON)]);
+    p.write("s.json", &json);
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.ok();
+    assert!(
+        run.stderr().contains("warning: structure st (analysis)") && run.stderr().contains("dangling"),
+        "{}",
+        run.stderr()
+    );
 }

@@ -42,6 +42,9 @@ pub struct StageRecord {
     pub key: Key,
     pub status: Status,
     pub millis: f64,
+    /// What the stage warned about when it ran (empty when it did not run).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 fn key_hex<S: serde::Serializer>(k: &Key, s: S) -> Result<S::Ok, S::Error> {
@@ -126,6 +129,7 @@ impl Executor<'_> {
         let closure = graph.closure(targets);
         let keys = self.keys(graph, &closure).map_err(|f| (f, Report::default()))?;
         let mut status: HashMap<NodeId, (Status, f64)> = HashMap::new();
+        let mut warnings: HashMap<NodeId, Vec<String>> = HashMap::new();
         let mut values: HashMap<NodeId, Artifact> = HashMap::new();
         let mut corrupt: HashSet<NodeId> = HashSet::new();
 
@@ -171,15 +175,19 @@ impl Executor<'_> {
         if let Some(max_depth) = max_depth {
             for level in 0..=max_depth {
                 let wave: Vec<NodeId> = to_run.iter().copied().filter(|n| depth[n] == level).collect();
-                let results: Vec<(NodeId, Result<Artifact, StageError>, f64)> = wave
+                type Ran = (NodeId, Result<Artifact, StageError>, f64, Vec<String>);
+                let results: Vec<Ran> = wave
                     .par_iter()
                     .map(|&n| {
                         let t = Instant::now();
-                        let r = self.execute(graph, n, &keys[&n], &values);
-                        (n, r, ms(t))
+                        let (r, w) = self.execute(graph, n, &keys[&n], &values);
+                        (n, r, ms(t), w)
                     })
                     .collect();
-                for (n, r, t) in results {
+                for (n, r, t, w) in results {
+                    if !w.is_empty() {
+                        warnings.insert(n, w);
+                    }
                     match r {
                         Ok(a) => {
                             values.insert(n, a);
@@ -216,6 +224,7 @@ impl Executor<'_> {
                         key: keys[&n],
                         status: s,
                         millis: t,
+                        warnings: warnings.remove(&n).unwrap_or_default(),
                     })
                 })
                 .collect(),
@@ -278,7 +287,7 @@ impl Executor<'_> {
         n: NodeId,
         key: &Key,
         values: &HashMap<NodeId, Artifact>,
-    ) -> Result<Artifact, StageError> {
+    ) -> (Result<Artifact, StageError>, Vec<String>) {
         let node = &graph.nodes[n];
         let progress = Progress::new(&node.label, self.progress);
         let cx = RunCx {
@@ -286,13 +295,18 @@ impl Executor<'_> {
             files: &node.files,
             world: self.world,
             progress: &progress,
+            warnings: Default::default(),
         };
         let result = node.stage.run(&cx);
         progress.finish();
-        let artifact = result?;
+        let warnings = cx.warnings.into_inner().unwrap_or_default();
+        let artifact = match result {
+            Ok(a) => a,
+            Err(e) => return (Err(e), warnings),
+        };
         // A cache that cannot be written costs speed, not correctness: carry on.
         let _ = self.cache.put(key, &node.stage.encode(&artifact));
-        Ok(artifact)
+        (Ok(artifact), warnings)
     }
 }
 

@@ -74,6 +74,7 @@ pub struct RunCx<'a> {
     pub(crate) files: &'a [PathBuf],
     pub(crate) world: &'a World,
     pub(crate) progress: &'a super::progress::Progress,
+    pub(crate) warnings: std::sync::Mutex<Vec<String>>,
 }
 
 impl RunCx<'_> {
@@ -91,6 +92,14 @@ impl RunCx<'_> {
     pub fn file(&self, i: usize) -> Result<Arc<[u8]>, StageError> {
         let path = &self.files[i];
         self.world.read(path).map_err(|e| StageError::new(format!("cannot read `{}`: {e}", path.display())).in_file(i))
+    }
+
+    /// Reports something the user should know that does not stop the stage (pruned input,
+    /// a fallback taken). Shown when the stage runs; part of the stage report.
+    pub fn warn(&self, message: impl Into<String>) {
+        if let Ok(mut w) = self.warnings.lock() {
+            w.push(message.into());
+        }
     }
 
     /// Reports progress of a long stage; shown as a bar on a terminal.

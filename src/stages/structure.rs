@@ -21,11 +21,14 @@ use crate::raster::{self, Image};
 use crate::synth::rng::Rng;
 use crate::synth::structure::controls::{allowed_from_occupancy, Controls, DensityParams, OrientationMode, RemoveMode};
 use crate::synth::structure::edits::{self, Edit, Target};
+use crate::synth::structure::faces::mesh_to_subdivision;
 use crate::synth::structure::labels_import::rasterize_polygons;
 use crate::synth::structure::lloyd::{self, IterationStats, LloydParams};
 use crate::synth::structure::metric::MetricKind;
+use crate::synth::structure::optimize::{self, ShapeParams};
 use crate::synth::structure::polygonize::{self, Polygonization, PolygonizeParams};
-use crate::synth::structure::sample::{analyse_sample, SampleStructure};
+use crate::synth::structure::report;
+use crate::synth::structure::sample::{analyse_label_image, analyse_sample, analyse_subdivision, SampleStructure};
 use crate::synth::structure::stats::{EllipseFit, StatsConfig};
 use crate::synth::structure::synthesis::{self, CenterSource, EmpiricalSampler, ShapeSampling, StatisticalParams};
 use crate::synth::structure::voronoi::{self, Domain};
@@ -214,6 +217,24 @@ fn prepare_maps(cx: &RunCx, m: MapInputs, w: usize, h: usize) -> Result<Maps, St
     })
 }
 
+/// One id per distinct colour of a label image (quantised to 8 bits per channel, so that
+/// 16-bit or EXR images with the same painted colours give the same regions).
+fn colour_ids(img: &Image) -> Vec<u32> {
+    let n = img.width * img.height;
+    let channels = img.channels.min(3);
+    let mut ids = Vec::with_capacity(n);
+    let mut map = std::collections::HashMap::new();
+    for i in 0..n {
+        let mut key = 0u32;
+        for c in 0..channels {
+            key = key << 8 | (img.data[c * n + i].clamp(0.0, 1.0) * 255.0).round() as u32;
+        }
+        let next = map.len() as u32;
+        ids.push(*map.entry(key).or_insert(next));
+    }
+    ids
+}
+
 fn metric_kind(name: &str) -> MetricKind {
     match name {
         "manhattan" => MetricKind::Manhattan,
@@ -250,9 +271,22 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     };
     let analyse = FnStage::new("structure.analyse", 1, serde_json::to_string(&config).expect("config"), move |cx| {
         let bytes = cx.file(0)?;
-        let text = std::str::from_utf8(&bytes)
-            .map_err(|_| StageError::new("the structure file is not UTF-8 text").in_file(0))?;
-        let s = analyse_sample(text, &config).map_err(|e| StageError::new(e.to_string()).in_file(0))?;
+        let s = if raster::io::sniff(&bytes).is_some() {
+            // A painted label image: one colour per region.
+            let img = raster::io::decode(&bytes)
+                .map_err(|e| StageError::new(format!("cannot decode the label image: {e}")).in_file(0))?;
+            let ids = colour_ids(&img);
+            analyse_label_image(&ids, img.width, img.height, 1.0, &config)
+        } else {
+            let text = std::str::from_utf8(&bytes).map_err(|_| {
+                StageError::new("the structure file is neither JSON text nor a PNG/EXR label image").in_file(0)
+            })?;
+            analyse_sample(text, &config)
+        }
+        .map_err(|e| StageError::new(e.to_string()).in_file(0))?;
+        for w in &s.warnings {
+            cx.warn(format!("structure sample: {w}"));
+        }
         if s.originals().is_empty() {
             return Err(StageError::new("the structure has no interior region to learn from")
                 .in_file(0)
@@ -323,10 +357,83 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     });
     let s3 = p.add(format!("structure {} (polygonize)", d.name), s3, vec![s2], vec![]);
 
+    // S4: shape optimisation towards the closest original shapes.
+    let shapes = props.block("shapes");
+    let scale = props.num("scale");
+    let sparams = ShapeParams {
+        step: shapes.num("step"),
+        max_iters: if shapes.bool("enabled") { shapes.int("iterations") as usize } else { 0 },
+        reassociate_every: shapes.int("reassociate") as usize,
+        area_tol: shapes.num("area_tolerance"),
+        allow_rotation: shapes.bool("allow_rotation"),
+        tol: shapes.num("tolerance"),
+        min_edge: block.num("min_edge"),
+        straight_deg: block.num("straight").to_degrees(),
+        ..ShapeParams::default()
+    };
+    let key = serde_json::json!({
+        "scale": scale, "enabled": shapes.bool("enabled"), "params": format!("{sparams:?}"), "w": w, "h": h,
+    })
+    .to_string();
+    let s4 = FnStage::new("structure.shapes", 1, key, move |cx| {
+        let m = cx.input::<Polygonization>(0);
+        let sample = cx.input::<SampleStructure>(1);
+        if sparams.max_iters == 0 {
+            return Ok(Shaped { mesh: m.mesh.clone(), placed: vec![None; m.mesh.regions.len()], errors: vec![] });
+        }
+        // Originals at the structure's scale: the ±20 % area rule compares like with like.
+        let originals: Vec<Vec<Point>> = sample
+            .originals()
+            .into_iter()
+            .map(|(poly, _)| poly.iter().map(|p| [p[0] * scale, p[1] * scale]).collect())
+            .collect();
+        let r = optimize::optimize_shapes(
+            &m.mesh,
+            &m.on_occupancy_border,
+            &m.on_domain_border,
+            (w as f64, h as f64),
+            &originals,
+            &sparams,
+        );
+        if r.fallback_associations > 0 || r.failed_associations > 0 {
+            cx.warn(format!(
+                "{} region(s) matched an original outside ±{:.0} % area, {} matched none",
+                r.fallback_associations,
+                sparams.area_tol * 100.0,
+                r.failed_associations
+            ));
+        }
+        Ok(Shaped {
+            placed: r.associations.iter().map(|a| a.as_ref().map(|a| a.placed.clone())).collect(),
+            mesh: r.mesh,
+            errors: r.errors,
+        })
+    });
+    let s4 = p.add(format!("structure {} (shapes)", d.name), s4, vec![s3, a1], vec![]);
+
     p.parts.insert((d.name.clone(), "lloyd"), s2);
     p.parts.insert((d.name.clone(), "analysis"), a1);
-    p.parts.insert((d.name.clone(), "mesh"), s3);
-    Ok(s3)
+    p.parts.insert((d.name.clone(), "mesh"), s4);
+    Ok(s4)
+}
+
+/// The final mesh of stage 2 and, per region, the original shape it was matched with.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Shaped {
+    pub mesh: Mesh,
+    pub placed: Vec<Option<Vec<Point>>>,
+    /// Mean shape error per iteration.
+    pub errors: Vec<f64>,
+}
+
+impl Encoded for Shaped {
+    fn encode(&self) -> Vec<u8> {
+        serde_json::to_vec(self).expect("mesh serialises")
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        serde_json::from_slice(bytes).map_err(|e| e.to_string())
+    }
 }
 
 impl Encoded for Polygonization {
@@ -637,17 +744,58 @@ pub fn plan_output(
             });
             p.add(label, stage, vec![lloyd], vec![])
         }
+        // The synthesised structure's statistics against the sample's.
+        "stats" => {
+            let analysis = p.part(structure, "analysis").expect("structures plan an analysis");
+            let stage = FnStage::new("structure.view", 1, params, move |cx| {
+                let m = cx.input::<Shaped>(0);
+                let sample = cx.input::<SampleStructure>(2);
+                let r = cx.input::<Relaxed>(1);
+                let size = [r.labels.width as f64, r.labels.height as f64];
+                let generated = analyse_subdivision(&mesh_to_subdivision(&m.mesh), Some(size), &sample.model.config)
+                    .map_err(|e| StageError::new(format!("the synthesised mesh does not analyse: {e}")))?;
+                let report = report::compare(&sample.model, &generated.model);
+                Ok(Bytes(report::to_json(&report).into_bytes()))
+            });
+            p.add(label, stage, vec![mesh, lloyd, analysis], vec![])
+        }
         // Views of the final mesh.
         _ => {
             let stage = FnStage::new("structure.view", 1, params, move |cx| {
-                let m = cx.input::<Polygonization>(0);
+                let m = cx.input::<Shaped>(0);
                 let r = cx.input::<Relaxed>(1);
+                if view_name == "closest" {
+                    return encode_image(&closest_view(&m, r.labels.width, r.labels.height, edge_width), format);
+                }
                 mesh_view(&view_name, &m.mesh, r.labels.width, r.labels.height, edge_width, format)
             });
             p.add(label, stage, vec![mesh, lloyd], vec![])
         }
     };
     Ok(node)
+}
+
+/// The mesh's edges in black with each region's associated original, placed on it, in red
+/// (the thesis's Fig. 3.20 view).
+fn closest_view(s: &Shaped, w: usize, h: usize, edge_width: f64) -> Image {
+    let edges = render::edges_raster(&s.mesh, w, h, edge_width);
+    let mut vertices = Vec::new();
+    let mut regions = Vec::new();
+    for poly in s.placed.iter().flatten() {
+        let start = vertices.len();
+        vertices.extend_from_slice(poly);
+        regions.push((start..vertices.len()).collect());
+    }
+    let originals = render::edges_raster(&Mesh { vertices, regions }, w, h, edge_width);
+    let n = w * h;
+    let mut img = Image::new(w, h, 3);
+    for i in 0..n {
+        let (e, o) = (edges.data[i], originals.data[i]);
+        img.data[i] = e;
+        img.data[n + i] = e * o;
+        img.data[2 * n + i] = e * o;
+    }
+    img
 }
 
 fn mesh_view(

@@ -3,9 +3,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::format::{parse_structure_file, StructureError};
+use super::format::{parse_structure_file, StructureError, StructureFile};
+use super::labels_import::import_labels;
 use super::stats::{self, StatModel, StatsConfig};
-use super::{Ellipse, Mesh, Point};
+use super::{Ellipse, Mesh, Point, Subdivision};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SampleStructure {
@@ -41,6 +42,29 @@ impl SampleStructure {
 /// Parses, validates, cleans and analyses a structure file's text.
 pub fn analyse_sample(text: &str, config: &StatsConfig) -> Result<SampleStructure, StructureError> {
     let file = parse_structure_file(text)?;
+    analyse_subdivision(&file.subdivision, file.size, config)
+}
+
+/// A painted label image as a structure sample: one id (or colour, packed by the caller)
+/// per pixel; region boundaries are traced and simplified by `tolerance` pixels.
+pub fn analyse_label_image(
+    ids: &[u32],
+    width: usize,
+    height: usize,
+    tolerance: f64,
+    config: &StatsConfig,
+) -> Result<SampleStructure, StructureError> {
+    let sub = import_labels(ids, width, height, tolerance)?;
+    analyse_subdivision(&sub, Some([width as f64, height as f64]), config)
+}
+
+/// Validates, cleans and analyses a subdivision.
+pub fn analyse_subdivision(
+    sub: &Subdivision,
+    size: Option<[f64; 2]>,
+    config: &StatsConfig,
+) -> Result<SampleStructure, StructureError> {
+    let file = StructureFile { size, subdivision: sub.clone() };
     let analysis = stats::analyse(&file.subdivision, file.size, config)?;
     let sub = &analysis.cleaned.subdivision;
     let faces = &analysis.faces;
