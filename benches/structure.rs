@@ -6,6 +6,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use tessera::synth::rng::Rng;
 use tessera::synth::structure::controls::Controls;
 use tessera::synth::structure::lloyd::{lloyd, LloydParams};
+use tessera::synth::structure::optimize::{optimize_shapes, ShapeParams};
 use tessera::synth::structure::polygonize::{polygonize, PolygonizeParams};
 use tessera::synth::structure::sample::analyse_sample;
 use tessera::synth::structure::stats::StatsConfig;
@@ -33,6 +34,14 @@ fn generators() -> Vec<Ellipse> {
     s.generators
 }
 
+fn originals_at_scale() -> (Vec<Vec<[f64; 2]>>, f64) {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/standins/wall_random.json"))
+        .expect("stand-in");
+    let sample = analyse_sample(&text, &StatsConfig::default()).expect("analysis");
+    let scale = ((SIZE * SIZE) as f64 / (300.0 * sample.model.mean_region_area)).sqrt();
+    (sample.originals().into_iter().map(|(p, _)| p).collect(), scale)
+}
+
 fn bench(c: &mut Criterion) {
     let gens = generators();
     let mut group = c.benchmark_group("structure");
@@ -55,6 +64,24 @@ fn bench(c: &mut Criterion) {
     let relaxed = lloyd(SIZE, SIZE, &gens, None, &Controls::default(), &LloydParams::default());
     group.bench_function("polygonize_1024_300", |b| {
         b.iter(|| polygonize(&relaxed.labels, &PolygonizeParams::default()))
+    });
+    // Stage 2 on the same mesh, against the sample's originals at the same scale.
+    let mesh = polygonize(&relaxed.labels, &PolygonizeParams::default());
+    let (originals, scale) = originals_at_scale();
+    let originals: Vec<Vec<[f64; 2]>> =
+        originals.iter().map(|p| p.iter().map(|v| [v[0] * scale, v[1] * scale]).collect()).collect();
+    let params = ShapeParams::default();
+    group.bench_function("stage2_1024_300", |b| {
+        b.iter(|| {
+            optimize_shapes(
+                &mesh.mesh,
+                &mesh.on_occupancy_border,
+                &mesh.on_domain_border,
+                (SIZE as f64, SIZE as f64),
+                &originals,
+                &params,
+            )
+        })
     });
     group.finish();
 }

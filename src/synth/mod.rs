@@ -1,5 +1,8 @@
 //! The algorithms: pure functions on plain data. No file I/O, no cache, no graph.
+pub mod blend;
+pub mod library;
 pub mod map;
+pub mod metrics;
 pub mod quilt;
 pub mod rng;
 pub mod structure;
