@@ -40,8 +40,18 @@ fn noop_rebuild(c: &mut Criterion) {
     let status = Command::new(bin).args(["build", "-q"]).current_dir(root).status().unwrap();
     assert!(status.success());
     let mut group = c.benchmark_group("noop_rebuild");
-    group.sample_size(30);
-    for scene in ["masks", "fields", "wall"] {
+    group.sample_size(20);
+    group.warm_up_time(std::time::Duration::from_millis(500));
+    group.measurement_time(std::time::Duration::from_secs(2));
+    let mut scenes: Vec<String> = std::fs::read_dir(root.join("scenes"))
+        .unwrap()
+        .filter_map(|e| {
+            let name = e.unwrap().file_name().to_string_lossy().into_owned();
+            (name.ends_with(".tess") && !name.starts_with('_')).then(|| name.trim_end_matches(".tess").to_string())
+        })
+        .collect();
+    scenes.sort();
+    for scene in &scenes {
         let path = PathBuf::from(format!("scenes/{scene}.tess"));
         group.bench_function(format!("{scene}/library"), |b| {
             b.iter(|| {
