@@ -125,14 +125,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     if src.kind == "structure" {
         let view = d.props.enumeration("view").to_string();
         let node = super::structure::plan_output(p, d, from, format, &view, d.props.num("edge_width"))?;
-        p.outputs.push(PlannedOutput {
-            name: d.name.clone(),
-            node,
-            format,
-            tolerance: d.props.opt_num("tolerance"),
-            outliers: d.props.num("outliers"),
-            span: d.name_span,
-        });
+        p.outputs.push(planned(d, node, format));
         return Ok(node);
     }
     if d.props.enumeration("view") != "auto" {
@@ -176,25 +169,34 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
                 }
             }
         };
-        let bytes = match format {
-            OutputFormat::Png8 => raster::io::encode_png(&img, 8),
-            OutputFormat::Png16 => raster::io::encode_png(&img, 16),
-            OutputFormat::Exr => raster::io::encode_exr(&img),
-            OutputFormat::Json | OutputFormat::Svg => unreachable!("rejected when planned"),
-        }
-        .map_err(|e| StageError::new(format!("cannot encode the output: {e}")))?;
-        Ok(Bytes(bytes))
+        encode_image(&img, format)
     });
     let node = p.add(format!("output {}", d.name), stage, vec![input], vec![]);
-    p.outputs.push(PlannedOutput {
+    p.outputs.push(planned(d, node, format));
+    Ok(node)
+}
+
+fn planned(d: &Decl, node: NodeId, format: OutputFormat) -> PlannedOutput {
+    PlannedOutput {
         name: d.name.clone(),
         node,
         format,
         tolerance: d.props.opt_num("tolerance"),
         outliers: d.props.num("outliers"),
         span: d.name_span,
-    });
-    Ok(node)
+    }
+}
+
+/// Encodes an image output in the output's (image) format.
+pub(crate) fn encode_image(img: &Image, format: OutputFormat) -> Result<Bytes, StageError> {
+    match format {
+        OutputFormat::Png8 => raster::io::encode_png(img, 8),
+        OutputFormat::Png16 => raster::io::encode_png(img, 16),
+        OutputFormat::Exr => raster::io::encode_exr(img),
+        OutputFormat::Json | OutputFormat::Svg => unreachable!("text formats are checked when planned"),
+    }
+    .map(Bytes)
+    .map_err(|e| StageError::new(format!("cannot encode the output: {e}")))
 }
 
 /// Samples are stored in their declared colour space; PNGs hold sRGB and EXRs linear.

@@ -14,6 +14,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::output::encode_image;
 use super::{Bytes, Encoded, FnStage, OutputFormat, Planner};
 use crate::graph::{NodeId, RunCx, StageError};
 use crate::lang::{Decl, Diagnostic, Props};
@@ -671,18 +672,6 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
         })
     });
     p.add(format!("structure {} ({tag})", d.name), stage, inputs, vec![])
-}
-
-/// Encodes an image output in the output's format.
-pub(crate) fn encode_image(img: &Image, format: OutputFormat) -> Result<Bytes, StageError> {
-    match format {
-        OutputFormat::Png8 => raster::io::encode_png(img, 8),
-        OutputFormat::Png16 => raster::io::encode_png(img, 16),
-        OutputFormat::Exr => raster::io::encode_exr(img),
-        OutputFormat::Json | OutputFormat::Svg => unreachable!("text formats are checked when planned"),
-    }
-    .map(Bytes)
-    .map_err(|e| StageError::new(format!("cannot encode the output: {e}")))
 }
 
 /// The stage writing one view of a structure to an output file.

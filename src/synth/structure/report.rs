@@ -29,8 +29,7 @@
 //! 1e-9, so the bytes are stable.
 
 use super::ellipse::axial_angle_diff;
-use super::format::round_to;
-use super::stats::{ks_two_sample, Counts, Histogram1, StatModel};
+use super::stats::{ks_two_sample, round_json, Counts, Histogram1, StatModel};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -360,27 +359,6 @@ pub fn compare(sample: &StatModel, generated: &StatModel) -> StatsReport {
             mean_region_area_sample: sample.mean_region_area,
             mean_region_area_generated: generated.mean_region_area,
         },
-    }
-}
-
-fn round_json(v: &mut serde_json::Value, step: f64) {
-    match v {
-        serde_json::Value::Number(n) if n.is_f64() => {
-            let r = round_to(n.as_f64().unwrap_or(0.0), step);
-            if let Some(m) = serde_json::Number::from_f64(r) {
-                *n = m;
-            }
-        }
-        serde_json::Value::Array(a) => a.iter_mut().for_each(|x| round_json(x, step)),
-        serde_json::Value::Object(o) => {
-            let mut entries: Vec<(String, serde_json::Value)> = std::mem::take(o).into_iter().collect();
-            entries.sort_by(|a, b| a.0.cmp(&b.0));
-            for (k, mut x) in entries {
-                round_json(&mut x, step);
-                o.insert(k, x);
-            }
-        }
-        _ => {}
     }
 }
 

@@ -538,7 +538,8 @@ impl StatModel {
     }
 }
 
-fn round_json(v: &mut serde_json::Value, step: f64) {
+/// Rounds every float in a JSON value to `step` and sorts object keys: stable golden bytes.
+pub(crate) fn round_json(v: &mut serde_json::Value, step: f64) {
     match v {
         serde_json::Value::Number(n) if n.is_f64() => {
             let r = round_to(n.as_f64().unwrap_or(0.0), step);
