@@ -57,12 +57,9 @@ impl World {
     /// The file's bytes, read at most once per build.
     pub fn read(&self, path: &Path) -> io::Result<Arc<[u8]>> {
         self.accessed.lock().expect("world lock").insert(path.to_path_buf());
-        let (len, mtime) = Self::stat(path)?;
-        if let Some(e) = self.entries.lock().expect("world lock").get(path) {
-            if let Some(b) = &e.bytes {
-                return Ok(b.clone());
-            }
-            let _ = (len, mtime);
+        let (_, mtime) = Self::stat(path)?;
+        if let Some(b) = self.entries.lock().expect("world lock").get(path).and_then(|e| e.bytes.clone()) {
+            return Ok(b);
         }
         let bytes: Arc<[u8]> = std::fs::read(path)?.into();
         let hash = *blake3::hash(&bytes).as_bytes();

@@ -287,7 +287,7 @@ fn evaluate(call: &Call, w: usize, h: usize, seed: u64, cx: &RunCx) -> Result<Im
 }
 
 /// The map at the requested size: itself when it fits, else resampled bilinearly.
-fn fit(img: &Image, w: usize, h: usize) -> Image {
+pub(crate) fn fit(img: &Image, w: usize, h: usize) -> Image {
     if img.width == w && img.height == h {
         img.clone()
     } else {

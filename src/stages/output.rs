@@ -1,7 +1,7 @@
 //! `output "file" { from = ... }`: encodes a result to a file's bytes. The bytes are a
 //! cached artifact; writing them to disk (atomically, only when changed) is the driver's job.
 
-use super::{sample::transfer, Bytes, FnStage, Planner};
+use super::{Bytes, FnStage, Planner};
 use crate::graph::{NodeId, StageError};
 use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, POSITIVE, UNIT};
 use crate::lang::source::Span;
@@ -203,12 +203,12 @@ pub(crate) fn encode_image(img: &Image, format: OutputFormat) -> Result<Bytes, S
 fn to_file_space(img: &Image, color: SampleColor, format: OutputFormat) -> Image {
     let linear = match color {
         SampleColor::Linear => img.clone(),
-        SampleColor::Srgb => transfer(img, raster::color::srgb_to_linear),
+        SampleColor::Srgb => raster::color::image_srgb_to_linear(img),
         SampleColor::Lab => raster::color::image_lab_to_linear(img),
     };
     match format {
         OutputFormat::Exr => linear,
-        _ => transfer(&linear, raster::color::linear_to_srgb),
+        _ => raster::color::image_linear_to_srgb(&linear),
     }
 }
 

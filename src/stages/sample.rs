@@ -6,7 +6,7 @@ use super::{Bytes, FnStage, Planner};
 use crate::graph::{NodeId, StageError};
 use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit};
 use crate::lang::{Decl, Diagnostic};
-use crate::raster::{self, Image};
+use crate::raster;
 
 pub static SPEC: KindSpec = KindSpec {
     name: "sample",
@@ -96,7 +96,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         let img = raster::io::decode(&bytes)
             .map_err(|e| StageError::new(format!("cannot decode the image: {e}")).in_file(0))?;
         let linear_source = raster::io::is_exr(&bytes);
-        let mut img = if linear_source { img } else { transfer(&img, raster::color::srgb_to_linear) };
+        let mut img = if linear_source { img } else { raster::color::image_srgb_to_linear(&img) };
         if let Some([x, y, w, h]) = crop {
             img = raster::resample::crop(&img, x, y, w, h).map_err(|_| {
                 StageError::new(format!(
@@ -110,7 +110,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             img = raster::resample::resize(&img, w as usize, h as usize, filter);
         }
         match color.as_str() {
-            "srgb" => Ok(transfer(&img, raster::color::linear_to_srgb)),
+            "srgb" => Ok(raster::color::image_linear_to_srgb(&img)),
             "lab" if img.channels >= 3 => Ok(raster::color::image_linear_to_lab(&img)),
             "lab" => Err(StageError::new(format!(
                 "`color = lab` needs an RGB image; this one has {} channel(s)",
@@ -122,17 +122,4 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     });
     let span = props.span("image").unwrap_or(d.name_span);
     Ok(p.add(format!("sample {}", d.name), stage, vec![], vec![(path, span)]))
-}
-
-/// Applies a transfer function to the colour channels (RGB, or the grey of 1–2 channel
-/// images) and leaves alpha and any further channels alone.
-pub(crate) fn transfer(img: &Image, f: fn(f32) -> f32) -> Image {
-    let colour = if img.channels >= 3 { 3 } else { 1 };
-    let mut out = img.clone();
-    for c in 0..colour {
-        for v in out.plane_mut(c) {
-            *v = f(*v);
-        }
-    }
-    out
 }

@@ -14,6 +14,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::map::fit;
 use super::output::encode_image;
 use super::{Bytes, Encoded, FnStage, OutputFormat, Planner};
 use crate::graph::{NodeId, RunCx, StageError};
@@ -170,11 +171,7 @@ struct Maps {
 }
 
 fn scalar_map(img: &Image, w: usize, h: usize) -> Vec<f32> {
-    let img = if img.width == w && img.height == h {
-        img.clone()
-    } else {
-        raster::resample::resize(img, w, h, raster::resample::Filter::Bilinear)
-    };
+    let img = fit(img, w, h);
     if img.channels == 1 {
         img.data
     } else {
@@ -190,11 +187,7 @@ fn prepare_maps(cx: &RunCx, m: MapInputs, w: usize, h: usize) -> Result<Maps, St
             if img.channels != 2 {
                 return Err(StageError::new("the orientation map must be a 2-channel field (e.g. `radial(field = tangential)` or `image(..., channel = vector)`)").at_prop("orientation"));
             }
-            let mut f = if img.width == w && img.height == h {
-                (*img).clone()
-            } else {
-                raster::resample::resize(&img, w, h, raster::resample::Filter::Bilinear)
-            };
+            let mut f = fit(&img, w, h);
             // Resampling shortens vectors; the direction is what matters.
             let n = w * h;
             for i in 0..n {
@@ -537,7 +530,6 @@ fn sample_generators(
 ) -> Result<Generators, StageError> {
     let sample = cx.input::<SampleStructure>(0);
     let plane = cx.input::<Plane>(1);
-    check_plane(&plane, w, h)?;
     let maps = prepare_maps(cx, m, w, h)?;
     let controls = Controls {
         density: maps.density.as_deref(),
@@ -615,13 +607,6 @@ fn sample_generators(
     })
 }
 
-fn check_plane(plane: &Plane, w: usize, h: usize) -> Result<(), StageError> {
-    if plane.width() != w || plane.height() != h {
-        return Err(StageError::new("the surface changed size while planning").at_prop("on"));
-    }
-    Ok(())
-}
-
 /// S2 (and S2 after edits): anisotropic Lloyd over the generators of node `gens`.
 fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize, h: usize, tag: &str) -> NodeId {
     let props = &d.props;
@@ -650,7 +635,6 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
     let stage = FnStage::new("structure.lloyd", 1, key, move |cx| {
         let g = cx.input::<Generators>(0);
         let plane = cx.input::<Plane>(1);
-        check_plane(&plane, w, h)?;
         let m = prepare_maps(cx, maps, w, h)?;
         let controls = Controls {
             density: m.density.as_deref(),
@@ -715,10 +699,16 @@ pub fn plan_output(
     }
     let lloyd = p.part(structure, "lloyd").expect("structures plan a Lloyd stage");
     let mesh = p.part(structure, "mesh").expect("structures plan a mesh stage");
-    let params =
-        serde_json::json!({ "view": view, "format": format!("{format:?}"), "edge_width": edge_width }).to_string();
     let view_name = view.to_string();
-    let metric = metric_kind(p.decl(structure).props.enumeration("metric"));
+    let decl = p.decl(structure);
+    let metric = metric_kind(decl.props.enumeration("metric"));
+    // The structure's size is its surface's, fixed when planned: mesh views need not load
+    // the label raster to learn it.
+    let (w, h) = p.decl(decl.props.reference("on").expect("required")).props.size("plane");
+    let (w, h) = (w as usize, h as usize);
+    let params =
+        serde_json::json!({ "view": view, "format": format!("{format:?}"), "edge_width": edge_width, "w": w, "h": h })
+            .to_string();
     let label = format!("output {}", d.name);
     let node = match view {
         // Views of the relaxed generators and their label raster.
@@ -738,27 +728,25 @@ pub fn plan_output(
             let analysis = p.part(structure, "analysis").expect("structures plan an analysis");
             let stage = FnStage::new("structure.view", 1, params, move |cx| {
                 let m = cx.input::<Shaped>(0);
-                let sample = cx.input::<SampleStructure>(2);
-                let r = cx.input::<Relaxed>(1);
-                let size = [r.labels.width as f64, r.labels.height as f64];
+                let sample = cx.input::<SampleStructure>(1);
+                let size = [w as f64, h as f64];
                 let generated = analyse_subdivision(&mesh_to_subdivision(&m.mesh), Some(size), &sample.model.config)
                     .map_err(|e| StageError::new(format!("the synthesised mesh does not analyse: {e}")))?;
                 let report = report::compare(&sample.model, &generated.model);
                 Ok(Bytes(report::to_json(&report).into_bytes()))
             });
-            p.add(label, stage, vec![mesh, lloyd, analysis], vec![])
+            p.add(label, stage, vec![mesh, analysis], vec![])
         }
         // Views of the final mesh.
         _ => {
             let stage = FnStage::new("structure.view", 1, params, move |cx| {
                 let m = cx.input::<Shaped>(0);
-                let r = cx.input::<Relaxed>(1);
                 if view_name == "closest" {
-                    return encode_image(&closest_view(&m, r.labels.width, r.labels.height, edge_width), format);
+                    return encode_image(&closest_view(&m, w, h, edge_width), format);
                 }
-                mesh_view(&view_name, &m.mesh, r.labels.width, r.labels.height, edge_width, format)
+                mesh_view(&view_name, &m.mesh, w, h, edge_width, format)
             });
-            p.add(label, stage, vec![mesh, lloyd], vec![])
+            p.add(label, stage, vec![mesh], vec![])
         }
     };
     Ok(node)

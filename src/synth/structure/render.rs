@@ -5,6 +5,7 @@ use std::fmt::Write;
 
 use rayon::prelude::*;
 
+use super::validate::point_segment_distance;
 use super::{Ellipse, Labels, Mesh, Point, NO_REGION};
 use crate::raster::Image;
 
@@ -121,14 +122,6 @@ fn rasterize_segments(segments: &[(Point, Point)], width: usize, height: usize, 
         }
     });
     out
-}
-
-pub fn point_segment_distance(p: Point, a: Point, b: Point) -> f64 {
-    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-    let len2 = dx * dx + dy * dy;
-    let t = if len2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-    let (qx, qy) = (a[0] + t * dx - p[0], a[1] + t * dy - p[1]);
-    (qx * qx + qy * qy).sqrt()
 }
 
 /// Points on an ellipse's outline, for drawing.
