@@ -3,6 +3,7 @@
 use std::fmt;
 
 use crate::raster::Image;
+use crate::synth::blend::BlendError;
 
 /// Per-pixel distance used for block matching and for the boundary cut.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -210,6 +211,12 @@ pub enum QuiltError {
     Invalid { name: &'static str, value: f64, expected: &'static str },
     /// No candidate block position is allowed in some sample.
     NoCandidates { sample: usize },
+    /// Seam removal needs every output pixel filled (no occupancy mask yet).
+    SeamsNeedFullCoverage { empty: usize },
+    /// The samples given for seam removal do not reproduce the quilt (`pixels` differ).
+    SampleContentMismatch { pixels: usize },
+    /// The Poisson blend behind seam removal refused its inputs.
+    Blend(BlendError),
 }
 
 impl fmt::Display for QuiltError {
@@ -246,6 +253,17 @@ impl fmt::Display for QuiltError {
             QuiltError::NoCandidates { sample } => {
                 write!(f, "sample {sample} has no allowed block position")
             }
+            QuiltError::SeamsNeedFullCoverage { empty } => write!(
+                f,
+                "seam removal does not support occupancy masks yet: {empty} output pixel(s) are empty; quilt \
+                 without an occupancy mask to remove seams"
+            ),
+            QuiltError::SampleContentMismatch { pixels } => write!(
+                f,
+                "the samples given for seam removal are not the ones the result was quilted from ({pixels} \
+                 pixel(s) differ)"
+            ),
+            QuiltError::Blend(e) => write!(f, "seam removal failed: {e}"),
         }
     }
 }
