@@ -70,12 +70,59 @@ enum Command {
         #[arg(long)]
         dot: bool,
     },
+    /// Rank the images of a directory by similarity to a target image (colour histogram and
+    /// Fourier features, Welsman-Dinelle Eq. 4.5) and print the table.
+    Similar {
+        /// The library directory (its `.png` and `.exr` files).
+        dir: PathBuf,
+        /// The image to match.
+        target: PathBuf,
+        /// Number of candidates.
+        #[arg(short, default_value_t = 8)]
+        k: usize,
+        /// 0: the k nearest in order; 1: k drawn uniformly; between: weighted draws.
+        #[arg(long, default_value_t = 0.0)]
+        randomness: f64,
+        /// Seed of the draws.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Fourier comparison.
+        #[arg(long, value_enum, default_value_t = FourierArg::Reim)]
+        fourier: FourierArg,
+        /// Leave the colour histogram out.
+        #[arg(long)]
+        no_colour: bool,
+        /// Also compare dominant orientations.
+        #[arg(long)]
+        orientation: bool,
+        /// Scale axes by fixed bounds instead of this query's largest distance.
+        #[arg(long)]
+        fixed: bool,
+        /// Colour histogram bins per axis.
+        #[arg(long, default_value_t = 32)]
+        bins: usize,
+        /// Fourier analysis size (a power of two).
+        #[arg(long, default_value_t = 128)]
+        size: usize,
+    },
+    /// Print texture distances of image A against image B: power spectrum, Laplacian
+    /// pyramid, colour histogram, and bidirectional patch similarity.
+    Compare { a: PathBuf, b: PathBuf },
     /// Remove cache entries that no current scene uses.
     Gc {
         /// Remove every entry.
         #[arg(long)]
         all: bool,
     },
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum FourierArg {
+    Reim,
+    Modulus,
+    Magnitude,
+    Radial,
+    Off,
 }
 
 fn parse_set(s: &str) -> Result<(String, String), String> {
@@ -92,6 +139,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Explain { kind, markdown } => explain(kind.as_deref(), *markdown),
         Command::Fmt { paths, check } => fmt(&cwd, paths, *check),
+        Command::Similar { .. } | Command::Compare { .. } => texture_tool(&cli.command),
         _ => Project::open(&cwd).map_err(|f| print_failed(&f)).and_then(|mut p| {
             p.sets = cli.sets.clone();
             p.progress = !cli.quiet;
@@ -139,7 +187,9 @@ fn run(cli: &Cli, p: &mut Project) -> CmdResult {
             }
             Ok(())
         }
-        Command::Explain { .. } | Command::Fmt { .. } => unreachable!("handled before opening the project"),
+        Command::Explain { .. } | Command::Fmt { .. } | Command::Similar { .. } | Command::Compare { .. } => {
+            unreachable!("handled before opening the project")
+        }
     }
 }
 
@@ -316,6 +366,44 @@ fn watch(cli: &Cli, p: &mut Project, scene: &Path, debounce: Duration) {
         }
         let _ = std::io::stdout().flush();
     });
+}
+
+fn texture_tool(command: &Command) -> CmdResult {
+    use tessera::synth::library::{FourierMode, Normalise};
+    let result = match command {
+        Command::Similar { dir, target, k, randomness, seed, fourier, no_colour, orientation, fixed, bins, size } => {
+            let options = project::texture::SimilarOptions {
+                k: *k,
+                randomness: *randomness,
+                seed: *seed,
+                colour: !no_colour,
+                fourier: match fourier {
+                    FourierArg::Reim => Some(FourierMode::ReIm),
+                    FourierArg::Modulus => Some(FourierMode::Modulus),
+                    FourierArg::Magnitude => Some(FourierMode::Magnitude),
+                    FourierArg::Radial => Some(FourierMode::Radial),
+                    FourierArg::Off => None,
+                },
+                orientation: *orientation,
+                normalise: if *fixed { Normalise::Fixed } else { Normalise::PerQueryMax },
+                bins: *bins,
+                size: *size,
+            };
+            project::texture::similar(dir, target, &options)
+        }
+        Command::Compare { a, b } => project::texture::compare(a, b),
+        _ => unreachable!("not a texture tool"),
+    };
+    match result {
+        Ok(table) => {
+            print!("{table}");
+            Ok(())
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            Err(ExitCode::FAILURE)
+        }
+    }
 }
 
 fn explain(kind: Option<&str>, markdown: bool) -> CmdResult {

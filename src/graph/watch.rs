@@ -31,8 +31,12 @@ impl Watcher {
     /// Replaces the set of watched files.
     pub fn follow(&mut self, files: impl IntoIterator<Item = PathBuf>) -> notify::Result<()> {
         let files: HashSet<PathBuf> = files.into_iter().map(|f| absolute(&f)).collect();
-        let dirs: HashSet<PathBuf> =
-            files.iter().filter_map(|f| f.parent().map(Path::to_path_buf)).filter(|d| d.is_dir()).collect();
+        // A followed directory (a library) is watched itself: any entry changing counts.
+        let dirs: HashSet<PathBuf> = files
+            .iter()
+            .filter_map(|f| if f.is_dir() { Some(f.clone()) } else { f.parent().map(Path::to_path_buf) })
+            .filter(|d| d.is_dir())
+            .collect();
         for gone in self.dirs.difference(&dirs) {
             let _ = self.inner.unwatch(gone);
         }
@@ -75,7 +79,7 @@ impl Watcher {
         }
         for p in ev.paths {
             let p = absolute(&p);
-            if self.files.contains(&p) {
+            if self.files.contains(&p) || p.parent().is_some_and(|d| self.files.contains(d)) {
                 changed.insert(p);
             }
         }

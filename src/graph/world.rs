@@ -70,6 +70,21 @@ impl World {
         Ok(bytes)
     }
 
+    /// The files in a directory (not recursive). The directory counts as read, so watch mode
+    /// follows files being added to or removed from it.
+    pub fn list(&self, dir: &Path) -> io::Result<Vec<PathBuf>> {
+        self.accessed.lock().expect("world lock").insert(dir.to_path_buf());
+        let mut out = Vec::new();
+        for e in std::fs::read_dir(dir)? {
+            let e = e?;
+            if e.file_type()?.is_file() {
+                out.push(e.path());
+            }
+        }
+        out.sort();
+        Ok(out)
+    }
+
     pub fn read_text(&self, path: &Path) -> io::Result<Arc<str>> {
         let bytes = self.read(path)?;
         let s = std::str::from_utf8(&bytes)

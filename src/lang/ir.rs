@@ -21,6 +21,8 @@ pub enum Val {
     /// A resolved file path. Serialised (for cache keys) by file name only: the content
     /// hash of the file, not where it lives, is what a stage's result depends on.
     Path(#[serde(serialize_with = "file_name_only")] PathBuf),
+    /// A directory and the files it holds (sorted). Serialised by file names only.
+    Dir(#[serde(skip)] PathBuf, #[serde(serialize_with = "file_names_only")] Vec<PathBuf>),
     Enum(String),
     Ref(String),
     Refs(Vec<String>),
@@ -31,6 +33,15 @@ pub enum Val {
 
 fn file_name_only<S: serde::Serializer>(p: &std::path::Path, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_str(&p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
+}
+
+fn file_names_only<S: serde::Serializer>(ps: &[PathBuf], s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeSeq;
+    let mut seq = s.serialize_seq(Some(ps.len()))?;
+    for p in ps {
+        seq.serialize_element(&p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())?;
+    }
+    seq.end()
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -142,6 +153,14 @@ impl Props {
         match self.get(name)? {
             Val::Path(p) => Some(p),
             v => panic!("property `{name}` is not a path: {v:?}"),
+        }
+    }
+
+    /// A directory property: the directory and its files.
+    pub fn dir(&self, name: &str) -> Option<(&PathBuf, &[PathBuf])> {
+        match self.get(name)? {
+            Val::Dir(d, files) => Some((d, files)),
+            v => panic!("property `{name}` is not a directory: {v:?}"),
         }
     }
 

@@ -19,6 +19,18 @@ const MAX_SIDE: f64 = 16384.0;
 /// that the caller can hash and record what was read (watch mode follows those files).
 pub trait Loader {
     fn load(&self, path: &Path) -> std::io::Result<Arc<str>>;
+
+    /// The entries of a directory (files only), for properties that name a directory.
+    fn list(&self, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+        let mut out = Vec::new();
+        for e in std::fs::read_dir(dir)? {
+            let e = e?;
+            if e.file_type()?.is_file() {
+                out.push(e.path());
+            }
+        }
+        Ok(out)
+    }
 }
 
 pub struct Options<'a> {
@@ -36,7 +48,7 @@ pub fn compile(root: &Path, loader: &dyn Loader, opts: &Options) -> Result<Scene
         return Err(Diagnostics::new(cx.errors, cx.sources));
     }
     let Cx { sources, mut errors, files } = cx;
-    let mut checker = Checker::new(opts, sources);
+    let mut checker = Checker::new(opts, sources, loader);
     checker.collect(&files);
     checker.apply_sets(opts.sets);
     checker.check_all();
@@ -144,6 +156,7 @@ struct DeclAst<'a> {
 
 struct Checker<'a> {
     registry: &'a [&'static KindSpec],
+    loader: &'a dyn Loader,
     sources: SourceMap,
     errors: Vec<Diagnostic>,
     params: HashMap<String, ParamDef>,
@@ -159,9 +172,10 @@ struct Checker<'a> {
 }
 
 impl<'a> Checker<'a> {
-    fn new(opts: &'a Options, sources: SourceMap) -> Self {
+    fn new(opts: &'a Options, sources: SourceMap, loader: &'a dyn Loader) -> Self {
         Checker {
             registry: opts.registry,
+            loader,
             sources,
             errors: Vec::new(),
             params: HashMap::new(),
@@ -344,13 +358,24 @@ impl<'a> Checker<'a> {
                 props.0.insert(spec.name.to_string(), Prop { val, span: Some(p.value.span) });
             }
         }
-        self.fill_defaults(&mut props, specs, owner, what, dir);
+        let written: Vec<&str> = seen.into_keys().collect();
+        self.fill_defaults(&mut props, specs, owner, what, dir, &written);
         props
     }
 
-    fn fill_defaults(&mut self, props: &mut Props, specs: &[PropSpec], owner: Span, what: &str, dir: &Path) {
+    /// Fills what the user did not write; a written value that failed its check already
+    /// has its own error and is not reported again as missing.
+    fn fill_defaults(
+        &mut self,
+        props: &mut Props,
+        specs: &[PropSpec],
+        owner: Span,
+        what: &str,
+        dir: &Path,
+        written: &[&str],
+    ) {
         for spec in specs {
-            if props.0.contains_key(spec.name) {
+            if props.0.contains_key(spec.name) || written.contains(&spec.name) {
                 continue;
             }
             let val = match spec.default {
@@ -472,6 +497,7 @@ impl<'a> Checker<'a> {
                 }
                 Some(Val::Path(normalize(&dir.join(s))))
             }
+            (Ty::Dir(extensions), ValueKind::Str(s)) => self.directory(s, v.span, dir, extensions),
             (Ty::Enum(options), ValueKind::Ident(name)) => {
                 if options.contains(&name.as_str()) {
                     Some(Val::Enum(name.clone()))
@@ -539,6 +565,42 @@ impl<'a> Checker<'a> {
         }
         self.errors.push(d);
         None
+    }
+
+    /// A directory and the files in it with one of `extensions`, sorted by name.
+    fn directory(&mut self, s: &str, span: Span, dir: &Path, extensions: &[&str]) -> Option<Val> {
+        let path = normalize(&dir.join(s));
+        let listed = match self.loader.list(&path) {
+            Ok(l) => l,
+            Err(e) => {
+                self.errors.push(
+                    Diagnostic::error(format!("cannot read the directory `{}`: {e}", path.display()))
+                        .with_code("tessera::directory")
+                        .with_label(span, "this directory"),
+                );
+                return None;
+            }
+        };
+        let mut files: Vec<PathBuf> = listed
+            .into_iter()
+            .filter(|f| {
+                f.extension()
+                    .and_then(|e| e.to_str())
+                    .is_some_and(|e| extensions.iter().any(|x| x.eq_ignore_ascii_case(e)))
+            })
+            .collect();
+        files.sort();
+        if files.is_empty() {
+            let list = extensions.iter().map(|e| format!("`.{e}`")).collect::<Vec<_>>().join(", ");
+            self.errors.push(
+                Diagnostic::error(format!("the directory `{}` holds no {list} files", path.display()))
+                    .with_code("tessera::empty_directory")
+                    .with_label(span, "this directory is empty")
+                    .with_help("put at least one image in it, or name another directory"),
+            );
+            return None;
+        }
+        Some(Val::Dir(path, files))
     }
 
     fn numbers(&mut self, items: &[ast::Value], unit: Unit) -> Option<Vec<f64>> {
@@ -660,6 +722,7 @@ impl<'a> Checker<'a> {
         let mut props = Props::default();
         let mut named_seen = false;
         let mut ok = true;
+        let mut failed: Vec<&str> = Vec::new();
         for (i, a) in args.iter().enumerate() {
             let arg_spec = match &a.name {
                 Some(n) => {
@@ -708,11 +771,14 @@ impl<'a> Checker<'a> {
                 Some(val) => {
                     props.0.insert(arg_spec.name.to_string(), Prop { val, span: Some(a.value.span) });
                 }
-                None => ok = false,
+                None => {
+                    ok = false;
+                    failed.push(arg_spec.name);
+                }
             }
         }
         let before = self.errors.len();
-        self.fill_defaults(&mut props, spec.args, span, spec.name, dir);
+        self.fill_defaults(&mut props, spec.args, span, spec.name, dir, &failed);
         if !ok || self.errors.len() > before {
             return None;
         }

@@ -94,6 +94,8 @@ pub enum Ty {
     Str,
     /// A string naming a file, relative to the declaring scene file.
     Path,
+    /// A string naming a directory; resolved to its files with these extensions.
+    Dir(&'static [&'static str]),
     Enum(&'static [&'static str]),
     /// A reference to a declaration of one of these kinds.
     Ref(&'static [&'static str]),
@@ -122,6 +124,10 @@ impl Ty {
             Ty::Points => "a list of points `[[x, y], ...]`".into(),
             Ty::Str => "a string".into(),
             Ty::Path => "a file path string".into(),
+            Ty::Dir(exts) => format!(
+                "a directory path string (its {} files)",
+                exts.iter().map(|e| format!("`.{e}`")).collect::<Vec<_>>().join(", ")
+            ),
             Ty::Enum(vs) => format!("one of {}", list(vs)),
             Ty::Ref(ks) => format!("a reference to a {}", ks.join(" or ")),
             Ty::Refs(ks) => format!("a vector of references to {}", ks.join(" or ")),

@@ -4,6 +4,7 @@
 mod check;
 pub mod manifest;
 mod show;
+pub mod texture;
 mod watch;
 
 use std::collections::HashSet;
@@ -70,6 +71,10 @@ struct WorldLoader<'a>(&'a World);
 impl lang::Loader for WorldLoader<'_> {
     fn load(&self, path: &Path) -> std::io::Result<Arc<str>> {
         self.0.read_text(path)
+    }
+
+    fn list(&self, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+        self.0.list(dir)
     }
 }
 

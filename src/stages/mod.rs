@@ -3,6 +3,9 @@
 //! layer that knows both the language and the algorithms.
 
 mod artifact;
+mod layer;
+mod layer_spec;
+mod library;
 mod map;
 mod output;
 mod sample;
@@ -15,6 +18,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 pub use artifact::{Bytes, Encoded, FnStage};
+pub use library::axis_name;
 pub use output::{OutputFormat, PlannedOutput};
 
 use crate::graph::{Graph, Node, NodeId, Stage};
@@ -23,7 +27,16 @@ use crate::lang::{Decl, Diagnostic, KindSpec, Scene};
 
 /// Every declaration kind the language accepts.
 pub fn registry() -> Vec<&'static KindSpec> {
-    vec![&scene::SPEC, &sample::SPEC, &map::SPEC, &surface::SPEC, &structure::SPEC, &output::SPEC]
+    vec![
+        &scene::SPEC,
+        &sample::SPEC,
+        &map::SPEC,
+        &surface::SPEC,
+        &structure::SPEC,
+        &layer::SPEC,
+        &library::SPEC,
+        &output::SPEC,
+    ]
 }
 
 /// Where to point when a node fails.
@@ -140,6 +153,8 @@ pub fn plan(scene: &Scene) -> Result<Plan, Vec<Diagnostic>> {
             "map" => map::plan(&mut p, d),
             "surface" => surface::plan(&mut p, d),
             "structure" => structure::plan(&mut p, d),
+            "layer" => layer::plan(&mut p, d),
+            "library" => library::plan(&mut p, d),
             "output" => output::plan(&mut p, d),
             k => unreachable!("kind `{k}` is in the registry but has no planner"),
         };

@@ -16,15 +16,18 @@ pub static SPEC: KindSpec = KindSpec {
     props: &[
         PropSpec {
             name: "from",
-            ty: Ty::Ref(&["map", "sample", "surface", "structure"]),
+            ty: Ty::Ref(&["map", "sample", "surface", "structure", "layer"]),
             default: Default::Required,
-            doc: "What to write. Maps are written as data; 2-channel orientation fields as RGB (x, y → R, G); samples in sRGB; surfaces as their occupancy; structures as `view` says.",
+            doc: "What to write. Maps are written as data; 2-channel orientation fields as RGB (x, y → R, G); samples and layers in sRGB (EXR: linear); surfaces as their occupancy; structures as `view` says. A `.json` output of a sample chosen by `similar(...)` writes the ranking.",
         },
         PropSpec {
             name: "view",
-            ty: Ty::Enum(&["auto", "labels", "labels16", "edges", "ellipses", "distance", "closest", "mesh", "svg", "stats"]),
+            ty: Ty::Enum(&[
+                "auto", "labels", "labels16", "edges", "ellipses", "distance", "closest", "mesh", "svg", "stats", "seams",
+                "index",
+            ]),
             default: Default::Text("auto"),
-            doc: "For structures: `labels` (a colour per region), `labels16` (region ids in a 16-bit PNG), `edges`, `ellipses` (over the labels), `distance` (to each region's generator), `closest` (associated original shapes), `mesh` (JSON), `svg`, `stats` (JSON report against the sample). `auto`: `mesh` for .json, `svg` for .svg, `labels` for images.",
+            doc: "For structures: `labels` (a colour per region), `labels16` (region ids in a 16-bit PNG), `edges`, `ellipses` (over the labels), `distance` (to each region's generator), `closest` (associated original shapes), `mesh` (JSON), `svg`, `stats` (JSON report against the sample). `auto`: `mesh` for .json, `svg` for .svg, `labels` for images. For quilted layers: `seams` (the block seams) and `index` (where each pixel came from: sample x → red, y → green).",
         },
         PropSpec {
             name: "edge_width",
@@ -128,7 +131,29 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         p.outputs.push(planned(d, node, format));
         return Ok(node);
     }
-    if d.props.enumeration("view") != "auto" {
+    let view = d.props.enumeration("view");
+    if src.kind == "layer" && view != "auto" {
+        if !matches!(view, "seams" | "index") || format.is_text() {
+            return Err(Diagnostic::error(format!("a layer has no `{view}` view as `.{ext}`"))
+                .with_code("tessera::output_view")
+                .with_label(d.props.span("view").unwrap_or(d.name_span), "here")
+                .with_help("layers are images; their views are `seams` and `index`"));
+        }
+        let node = super::layer::plan_output(p, d, from, format, view)?;
+        p.outputs.push(planned(d, node, format));
+        return Ok(node);
+    }
+    if src.kind == "sample" && format == OutputFormat::Json {
+        if let Some(query) = p.part(from, "ranking") {
+            let stage = FnStage::new("output.ranking", 1, String::new(), |cx| {
+                Ok(super::library::ranking_json(&cx.input::<super::library::Ranking>(0)))
+            });
+            let node = p.add(format!("output {}", d.name), stage, vec![query], vec![]);
+            p.outputs.push(planned(d, node, format));
+            return Ok(node);
+        }
+    }
+    if view != "auto" {
         return Err(Diagnostic::error(format!("`view` applies to structures, not to a {}", src.kind))
             .with_code("tessera::output_view")
             .with_label(d.props.span("view").unwrap_or(d.name_span), "remove this"));
@@ -138,21 +163,23 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             .with_code("tessera::output_format")
             .with_label(d.name_span, "use `.png` or `.exr`"));
     }
+    let color = |space: &str| match space {
+        "linear" => SampleColor::Linear,
+        "lab" => SampleColor::Lab,
+        _ => SampleColor::Srgb,
+    };
     let view = match src.kind {
-        "sample" => View::Sample {
-            color: match src.props.enumeration("color") {
-                "linear" => SampleColor::Linear,
-                "lab" => SampleColor::Lab,
-                _ => SampleColor::Srgb,
-            },
-        },
+        "sample" => View::Sample { color: color(src.props.enumeration("color")) },
+        "layer" => View::Sample { color: color(super::layer::color_space(p, from)) },
         "surface" => View::Plane,
         _ => View::Data,
     };
     let input = p.result(from);
-    let params =
-        serde_json::json!({ "format": format!("{format:?}"), "source": src.kind, "color": src.props.get("color") })
-            .to_string();
+    let space = if src.kind == "layer" { super::layer::color_space(p, from) } else { "" };
+    let params = serde_json::json!({
+        "format": format!("{format:?}"), "source": src.kind, "color": src.props.get("color"), "space": space
+    })
+    .to_string();
     let stage = FnStage::new("output.encode", 1, params, move |cx| {
         let img: Image = match view {
             View::Plane => cx.input::<Plane>(0).occupancy.clone(),

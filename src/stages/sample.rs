@@ -5,8 +5,8 @@
 use super::{Bytes, FnStage, Planner};
 use crate::graph::{NodeId, StageError};
 use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit};
-use crate::lang::{Decl, Diagnostic};
-use crate::raster;
+use crate::lang::{Decl, Diagnostic, Val};
+use crate::raster::{self, Image};
 
 pub static SPEC: KindSpec = KindSpec {
     name: "sample",
@@ -18,6 +18,12 @@ pub static SPEC: KindSpec = KindSpec {
             ty: Ty::Path,
             default: Default::Absent,
             doc: "PNG (8/16-bit, taken as sRGB-encoded) or OpenEXR (taken as linear) image.",
+        },
+        PropSpec {
+            name: "from",
+            ty: Ty::Source { calls: super::library::SAMPLE_SOURCES, refs: &[] },
+            default: Default::Absent,
+            doc: "Instead of `image`: a library entry chosen by `similar(...)`. A `.json` output of the sample writes the ranking.",
         },
         PropSpec {
             name: "crop",
@@ -61,43 +67,100 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         let span = props.span("structure").unwrap_or(d.name_span);
         p.add(format!("sample {} (structure)", d.name), stage, vec![], vec![(path.clone(), span)]);
     }
-    let Some(path) = props.path("image").cloned() else {
-        // A sample without an image: its result is the structure pass-through (or nothing).
-        if props.path("structure").is_some() {
-            return Ok(p.last());
-        }
-        return Err(Diagnostic::error(format!("sample `{}` names no file", d.name))
-            .with_code("tessera::missing_property")
-            .with_label(d.name_span, "give it an `image` or a `structure`"));
+    let similar = match props.get("from") {
+        Some(Val::Call(call)) => Some(call),
+        _ => None,
     };
-    let crop = match props.opt_numbers("crop") {
-        None => None,
-        Some(c) => {
-            let ok = c.len() == 4 && c.iter().all(|v| v.fract() == 0.0 && *v >= 0.0) && c[2] >= 1.0 && c[3] >= 1.0;
-            if !ok {
-                return Err(Diagnostic::error(
-                    "`crop` is `[x, y, w, h]`: four whole numbers, width and height at least 1",
-                )
-                .with_code("tessera::type")
-                .with_label(props.span("crop").unwrap_or(d.name_span), "invalid crop"));
+    if let (Some(_), Some(_)) = (props.path("image"), similar) {
+        return Err(Diagnostic::error(format!("sample `{}` has both an `image` and a `from`", d.name))
+            .with_code("tessera::sample")
+            .with_label(props.span("from").unwrap_or(d.name_span), "remove one"));
+    }
+    let path = match (props.path("image").cloned(), similar) {
+        (Some(path), _) => path,
+        (None, Some(call)) => return plan_similar(p, d, call),
+        (None, None) => {
+            // A sample without an image: its result is the structure pass-through (or nothing).
+            if props.path("structure").is_some() {
+                return Ok(p.last());
             }
-            Some([c[0] as usize, c[1] as usize, c[2] as usize, c[3] as usize])
+            return Err(Diagnostic::error(format!("sample `{}` names no file", d.name))
+                .with_code("tessera::missing_property")
+                .with_label(d.name_span, "give it an `image`, a `from` or a `structure`"));
         }
     };
-    let resize = props.opt_size("resize");
-    let filter = match props.enumeration("filter") {
-        "bilinear" => raster::resample::Filter::Bilinear,
-        _ => raster::resample::Filter::Bicubic,
-    };
-    let color = props.enumeration("color").to_string();
+    let prep = Prepare::of(d)?;
     let params = props.canonical();
-    let stage = FnStage::new("sample.image", 1, params, move |cx| {
-        let bytes = cx.file(0)?;
-        let img = raster::io::decode(&bytes)
-            .map_err(|e| StageError::new(format!("cannot decode the image: {e}")).in_file(0))?;
-        let linear_source = raster::io::is_exr(&bytes);
+    let stage = FnStage::new("sample.image", 1, params, move |cx| prep.apply(&cx.file(0)?, 0));
+    let span = props.span("image").unwrap_or(d.name_span);
+    Ok(p.add(format!("sample {}", d.name), stage, vec![], vec![(path, span)]))
+}
+
+fn plan_similar(p: &mut Planner, d: &Decl, call: &crate::lang::ir::Call) -> Result<NodeId, Diagnostic> {
+    let (query, files) = super::library::plan_similar(p, d, call)?;
+    p.parts.insert((d.name.clone(), "ranking"), query);
+    let prep = Prepare::of(d)?;
+    let pick = call.args.int("pick") as usize;
+    let span = d.props.span("from").unwrap_or(d.name_span);
+    let params = d.props.canonical();
+    let library_files = files.clone();
+    let stage = FnStage::new("sample.pick", 1, params, move |cx| {
+        let ranking = cx.input::<super::library::Ranking>(0);
+        let (bytes, index) = super::library::pick_bytes(cx, &library_files, &ranking, pick)?;
+        prep.apply(&bytes, index)
+    });
+    let files = files.into_iter().map(|f| (f, span)).collect();
+    Ok(p.add(format!("sample {}", d.name), stage, vec![query], files))
+}
+
+/// How an image file becomes a sample: decode, linearise, crop, resize, colour space.
+#[derive(Clone)]
+struct Prepare {
+    crop: Option<[usize; 4]>,
+    resize: Option<(u32, u32)>,
+    filter: raster::resample::Filter,
+    color: String,
+}
+
+impl Prepare {
+    fn of(d: &Decl) -> Result<Prepare, Diagnostic> {
+        let props = &d.props;
+        let crop = match props.opt_numbers("crop") {
+            None => None,
+            Some(c) => {
+                let ok = c.len() == 4 && c.iter().all(|v| v.fract() == 0.0 && *v >= 0.0) && c[2] >= 1.0 && c[3] >= 1.0;
+                if !ok {
+                    return Err(Diagnostic::error(
+                        "`crop` is `[x, y, w, h]`: four whole numbers, width and height at least 1",
+                    )
+                    .with_code("tessera::type")
+                    .with_label(props.span("crop").unwrap_or(d.name_span), "invalid crop"));
+                }
+                Some([c[0] as usize, c[1] as usize, c[2] as usize, c[3] as usize])
+            }
+        };
+        let resize = props.opt_size("resize");
+        let filter = match props.enumeration("filter") {
+            "bilinear" => raster::resample::Filter::Bilinear,
+            _ => raster::resample::Filter::Bicubic,
+        };
+        let color = props.enumeration("color").to_string();
+        Ok(Prepare { crop, resize, filter, color })
+    }
+
+    /// `file` is the index of the file the bytes came from, for blame.
+    fn apply(&self, bytes: &[u8], file: usize) -> Result<Image, StageError> {
+        let img = raster::io::decode(bytes)
+            .map_err(|e| StageError::new(format!("cannot decode the image: {e}")).in_file(file))?;
+        let bad = img.data.iter().filter(|v| !v.is_finite()).count();
+        if bad > 0 {
+            return Err(StageError::new(format!("the image holds {bad} NaN or infinite value(s)"))
+                .in_file(file)
+                .with_help("samples must be finite everywhere; fix or crop the file"));
+        }
+        let linear_source = raster::io::is_exr(bytes);
         let mut img = if linear_source { img } else { raster::color::image_srgb_to_linear(&img) };
-        if let Some([x, y, w, h]) = crop {
+        if let Some([x, y, w, h]) = self.crop {
             img = raster::resample::crop(&img, x, y, w, h).map_err(|_| {
                 StageError::new(format!(
                     "crop [{x}, {y}, {w}, {h}] reaches outside the {}x{} image",
@@ -106,10 +169,10 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
                 .at_prop("crop")
             })?;
         }
-        if let Some((w, h)) = resize {
-            img = raster::resample::resize(&img, w as usize, h as usize, filter);
+        if let Some((w, h)) = self.resize {
+            img = raster::resample::resize(&img, w as usize, h as usize, self.filter);
         }
-        match color.as_str() {
+        match self.color.as_str() {
             "srgb" => Ok(raster::color::image_linear_to_srgb(&img)),
             "lab" if img.channels >= 3 => Ok(raster::color::image_linear_to_lab(&img)),
             "lab" => Err(StageError::new(format!(
@@ -119,7 +182,5 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             .at_prop("color")),
             _ => Ok(img),
         }
-    });
-    let span = props.span("image").unwrap_or(d.name_span);
-    Ok(p.add(format!("sample {}", d.name), stage, vec![], vec![(path, span)]))
+    }
 }

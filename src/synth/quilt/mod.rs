@@ -16,6 +16,8 @@
 //!   and which follow the colour cut.
 //! - **Layout controls**: tileable (torus) output, an occupancy mask, an orientation field (pre-rotated
 //!   sample copies), and a density map mixing two samples.
+//! - **Seam removal** ([`remove_seams`]): a band-Dirichlet Poisson solve around block boundaries
+//!   with each block's own source gradients (digest 003 §6.3 (i)); block interiors stay bit-exact.
 //! - **Baseline**: Dong's pixel-based multiresolution method ([`pixel_synthesis`], Sec. 5.3.1), for the
 //!   Table 5.3.3 comparison only.
 //!
@@ -40,6 +42,7 @@ mod fft;
 mod params;
 mod pixel;
 mod rotate;
+mod seams;
 mod search;
 #[cfg(test)]
 mod tests;
@@ -50,6 +53,7 @@ pub use params::{
 };
 pub use pixel::{pixel_synthesis, PixelParams, PixelResult};
 pub use rotate::rotate_sample;
+pub use seams::{remove_seams, Deseamed, SeamParams};
 
 use crate::raster::Image;
 
@@ -140,7 +144,7 @@ impl IndexMap {
 }
 
 /// One source image blocks were copied from: input sample `sample`, rotated by `angle` radians.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SourceInfo {
     pub sample: usize,
     pub angle: f32,
@@ -150,7 +154,7 @@ pub struct SourceInfo {
 }
 
 /// One placed block.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BlockRecord {
     /// Top-left corner in the output.
     pub x: usize,

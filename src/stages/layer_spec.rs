@@ -1,0 +1,193 @@
+//! The schema of `layer` declarations.
+
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, NON_NEG, POSITIVE, UNIT};
+
+const fn prop(name: &'static str, ty: Ty, default: Default, doc: &'static str) -> PropSpec {
+    PropSpec { name, ty, default, doc }
+}
+
+static SOLVER: &[PropSpec] = &[
+    prop(
+        "kind",
+        Ty::Enum(&["mgpcg", "multigrid"]),
+        Default::Text("mgpcg"),
+        "Iterative solver for masked domains: multigrid-preconditioned conjugate gradients, or multigrid V-cycles alone. Whole-domain blends are solved exactly by FFT/DCT.",
+    ),
+    prop(
+        "tol",
+        Ty::Number(Unit::Plain, Range { min: 1e-12, max: 1.0 }),
+        Default::Text("1e-6"),
+        "Stop at this relative residual ‖b − Lf‖₂ / ‖b‖₂.",
+    ),
+    prop("max_iter", Ty::Int(1, 10_000), Default::Text("200"), "Iteration cap; reaching it is reported as a warning."),
+];
+
+pub static SPEC: KindSpec = KindSpec {
+    name: "layer",
+    doc: "A synthesised image layer: a sample grown onto a surface by image quilting (`quilt = ...`), or layers blended under a mask in the gradient domain (`blend = [...]`). Give exactly one of `quilt` and `blend`.",
+    naming: Naming::Ident,
+    props: &[
+        // Quilting (Efros–Freeman, with Dong's and Frasson's extensions).
+        prop("quilt", Ty::Ref(&["sample"]), Default::Absent, "Grow this sample by image quilting."),
+        prop(
+            "on",
+            Ty::Ref(&["surface"]),
+            Default::Absent,
+            "Target surface: its size, and its occupancy (pixels ≤ 0.5 stay empty). Default: the scene size, all occupied.",
+        ),
+        prop(
+            "block",
+            Ty::Number(Unit::Length, Range { min: 2.0, max: 4096.0 }),
+            Default::Text("32 px"),
+            "Side of the square blocks copied from the sample.",
+        ),
+        prop(
+            "overlap",
+            Ty::Number(Unit::Length, NON_NEG),
+            Default::Absent,
+            "Overlap between neighbouring blocks; must be smaller than `block`. Default block / 6.",
+        ),
+        prop(
+            "tolerance",
+            Ty::Number(Unit::Plain, NON_NEG),
+            Default::Text("0.1"),
+            "Candidates within (1 + tolerance) × the best error are eligible; one is drawn (seeded). 0 takes the best.",
+        ),
+        prop(
+            "metric",
+            Ty::Enum(&["ssd", "sad"]),
+            Default::Text("ssd"),
+            "Block error: sum of squared (Efros–Freeman) or absolute (Dong) differences.",
+        ),
+        prop(
+            "equalise",
+            Ty::Enum(&["minmax", "zscore", "none"]),
+            Default::Text("minmax"),
+            "Per-channel scaling before matching (by range or standard deviation), so channels of different units compare.",
+        ),
+        prop(
+            "weights",
+            Ty::Numbers(Unit::Plain),
+            Default::Absent,
+            "Per-channel weights of the matching error (one per sample channel). Default all 1.",
+        ),
+        prop(
+            "coherence",
+            Ty::Bool,
+            Default::Text("false"),
+            "Dong's shortcut: when the placed neighbours continue one sample offset, copy the block that completes it without a search.",
+        ),
+        prop(
+            "forced_search",
+            Ty::Number(Unit::Fraction, UNIT),
+            Default::Text("0"),
+            "With `coherence`, the probability of searching anyway.",
+        ),
+        prop(
+            "stride",
+            Ty::Int(1, 64),
+            Default::Text("1"),
+            "Candidate block positions are multiples of this (1 = every position).",
+        ),
+        prop("tileable", Ty::Bool, Default::Text("false"), "The output wraps around (torus): it tiles seamlessly."),
+        prop(
+            "orientation",
+            Ty::Ref(&["map"]),
+            Default::Absent,
+            "An orientation field: blocks come from copies of the sample rotated to the field's angle at the block centre.",
+        ),
+        prop("copies", Ty::Int(1, 64), Default::Text("8"), "Number of pre-rotated sample copies for `orientation`."),
+        prop(
+            "mix",
+            Ty::Ref(&["sample"]),
+            Default::Absent,
+            "A second sample, mixed with the first by `density` (a soft choice per block).",
+        ),
+        prop(
+            "density",
+            Ty::Ref(&["map"]),
+            Default::Absent,
+            "With `mix`: per block, the probability of taking the second sample (0 → only `quilt`, 1 → only `mix`).",
+        ),
+        prop(
+            "guide",
+            Ty::Ref(&["map", "sample", "layer"]),
+            Default::Absent,
+            "A guide image of the output's size; its channel i is compared with sample channel i (Frasson Eq. 5.2).",
+        ),
+        prop(
+            "guide_weight",
+            Ty::Ref(&["map"]),
+            Default::Absent,
+            "Where the guide counts (0 = not at all); default everywhere.",
+        ),
+        prop(
+            "alpha",
+            Ty::Number(Unit::Fraction, UNIT),
+            Default::Text("0.5"),
+            "With `guide`: E = alpha·overlap error + (1 − alpha)·guide error.",
+        ),
+        prop(
+            "seams",
+            Ty::Enum(&["keep", "gradient"]),
+            Default::Text("keep"),
+            "After quilting, `gradient` removes the block seams by a Poisson solve in a band around them.",
+        ),
+        prop(
+            "seam_band",
+            Ty::Number(Unit::Length, Range { min: 1.0, max: 256.0 }),
+            Default::Text("4 px"),
+            "Half-width of the band solved by `seams = gradient`.",
+        ),
+        // Blending (Welsman-Dinelle, after Pérez et al.).
+        prop(
+            "blend",
+            Ty::Refs(&["layer", "sample"]),
+            Default::Absent,
+            "Blend these (same size): the first is the background, the mask selects the second. With more than two, the mask value v picks source round(v·(n − 1)).",
+        ),
+        prop(
+            "mask",
+            Ty::Ref(&["map"]),
+            Default::Absent,
+            "Which source each pixel takes; must match the sources' size.",
+        ),
+        prop(
+            "threshold",
+            Ty::Number(Unit::Plain, UNIT),
+            Default::Absent,
+            "Binarise the mask at this cutoff (≥ cutoff selects the second source). Without it a two-source mask is soft: a weight per pixel.",
+        ),
+        prop(
+            "mode",
+            Ty::Enum(&["gradient", "mixed", "average", "cut"]),
+            Default::Text("gradient"),
+            "`gradient`: Poisson blend of the selected sources' gradients; `mixed`: the stronger gradient per edge; `average`: mean (soft: cross-fade) without a solve; `cut`: the hard composite.",
+        ),
+        prop(
+            "topology",
+            Ty::Enum(&["torus", "rim", "open"]),
+            Default::Text("torus"),
+            "`torus`: opposite edges are neighbours (tileable output); `rim`: the border is fixed to the background averaged over opposite sides; `open`: free border.",
+        ),
+        prop(
+            "domain",
+            Ty::Enum(&["mask", "band", "whole"]),
+            Default::Text("mask"),
+            "Pixels solved for: where the mask selects a non-background source (the thesis), a band around mask edges, or every pixel.",
+        ),
+        prop(
+            "band",
+            Ty::Number(Unit::Length, POSITIVE),
+            Default::Text("8 px"),
+            "Half-width of the band for `domain = band`.",
+        ),
+        prop(
+            "seam",
+            Ty::Enum(&["insert", "average", "zero"]),
+            Default::Text("insert"),
+            "Guidance on edges between two sources: the inserted (higher) source's gradient, the mean of both, or zero.",
+        ),
+        prop("solver", Ty::Block(SOLVER), Default::Text("{}"), "Solver settings."),
+    ],
+};

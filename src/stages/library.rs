@@ -1,0 +1,318 @@
+//! `library`: a directory of texture samples with their features, and `similar(...)`, the
+//! query that ranks them against a sample (digest 003 §2.3–2.5, §6.2 stages 7–9).
+//!
+//! ```text
+//! each file ─► library.features ─┐
+//!                                ├─► library.index ─┐
+//! target sample ─► library.target ──────────────────┴─► library.query ─► library.pick
+//! ```
+//!
+//! Features are cached per file, so touching one file recomputes its features and the
+//! queries, nothing else.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use super::{Bytes, Encoded, FnStage, Planner};
+use crate::graph::{NodeId, StageError};
+use crate::lang::ir::Call;
+use crate::lang::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit};
+use crate::lang::{Decl, Diagnostic, Val};
+use crate::raster::{self, Image};
+use crate::synth::blend::mask::Luma;
+use crate::synth::library::{
+    self as lib, Axis, FeatureParams, Features, FourierMode, HistogramNorm, Normalise, QueryParams,
+};
+
+const fn prop(name: &'static str, ty: Ty, default: Default, doc: &'static str) -> PropSpec {
+    PropSpec { name, ty, default, doc }
+}
+
+/// Image files a library reads.
+pub const EXTENSIONS: &[&str] = &["png", "exr"];
+
+pub static SPEC: KindSpec = KindSpec {
+    name: "library",
+    doc: "A texture library: every PNG or EXR image in a directory, with colour-histogram and Fourier features computed once per file. Queried with `similar(...)`.",
+    naming: Naming::Ident,
+    props: &[
+        prop("dir", Ty::Dir(EXTENSIONS), Default::Required, "The directory, relative to this scene file (not recursive)."),
+        prop(
+            "bins",
+            Ty::Int(2, 64),
+            Default::Text("32"),
+            "Colour histogram bins per RGB axis (32 in the thesis: 32³ bins).",
+        ),
+        prop(
+            "size",
+            Ty::Int(8, 1024),
+            Default::Text("128"),
+            "Side of the square analysis image of the Fourier features, a power of two; images are box-resampled to it.",
+        ),
+        prop(
+            "luma",
+            Ty::Enum(&["mean", "rec601", "rec709"]),
+            Default::Text("mean"),
+            "Grey formula for the Fourier features (thesis: the plain mean).",
+        ),
+    ],
+};
+
+/// Where a sample can come from besides a file: `similar(lib, to = sample, ...)`.
+pub static SAMPLE_SOURCES: &[CallSpec] = &[CallSpec {
+    name: "similar",
+    doc: "The library entry nearest to a sample (Welsman-Dinelle Eq. 4.5): per enabled axis the distance to every entry, scaled to [0, 1], combined as sqrt(Σ d̂²); then `k` candidates drawn with `randomness` (seeded) and the `pick`-th taken.",
+    args: &[
+        prop("library", Ty::Ref(&["library"]), Default::Required, "The library to search."),
+        prop("to", Ty::Ref(&["sample"]), Default::Required, "The sample to match."),
+        prop("k", Ty::Int(1, 1000), Default::Text("8"), "Size of the candidate set."),
+        prop(
+            "randomness",
+            Ty::Number(Unit::Plain, Range { min: 0.0, max: 1.0 }),
+            Default::Text("0"),
+            "0: the k nearest in order; 1: k drawn uniformly; between: weights exp(−d̂/τ), τ = ρ/(1 − ρ).",
+        ),
+        prop("pick", Ty::Int(1, 1000), Default::Text("1"), "Which candidate (1 = first) becomes the sample."),
+        prop("colour", Ty::Bool, Default::Text("true"), "Compare colour histograms (Eq. 4.2)."),
+        prop(
+            "fourier",
+            Ty::Enum(&["reim", "modulus", "magnitude", "radial", "off"]),
+            Default::Text("reim"),
+            "Compare spectra: real and imaginary parts (the thesis), complex modulus, magnitude only (shift invariant), radial profile (rotation robust), or not at all.",
+        ),
+        prop("orientation", Ty::Bool, Default::Text("false"), "Also compare the dominant orientations (Chandra)."),
+        prop(
+            "normalise",
+            Ty::Enum(&["per_query_max", "fixed"]),
+            Default::Text("per_query_max"),
+            "Scale each axis by this query's largest distance (the thesis), or by a bound independent of the library.",
+        ),
+        prop("seed", Ty::Int(0, 1 << 53), Default::Absent, "An explicit seed instead of the one derived from the scene's."),
+    ],
+}];
+
+/// Every entry's features, in file-name order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Index {
+    pub names: Vec<String>,
+    pub features: Vec<Features>,
+}
+
+/// A query's answer: the candidates in draw order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Ranking {
+    pub target: String,
+    pub axes: Vec<String>,
+    pub candidates: Vec<Candidate>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    pub name: String,
+    /// Position in the library (file-name order).
+    pub index: usize,
+    pub distance: f64,
+    /// Normalised distance per axis, in `Ranking::axes` order.
+    pub axes: Vec<f64>,
+    pub raw: Vec<f64>,
+}
+
+macro_rules! json_artifact {
+    ($t:ty) => {
+        impl Encoded for $t {
+            fn encode(&self) -> Vec<u8> {
+                serde_json::to_vec(self).expect("serialises")
+            }
+
+            fn decode(bytes: &[u8]) -> Result<Self, String> {
+                serde_json::from_slice(bytes).map_err(|e| e.to_string())
+            }
+        }
+    };
+}
+json_artifact!(Features);
+json_artifact!(Index);
+json_artifact!(Ranking);
+
+fn feature_params(d: &Decl) -> FeatureParams {
+    FeatureParams {
+        bins: d.props.int("bins") as usize,
+        size: d.props.int("size") as usize,
+        resample: true,
+        luma: match d.props.enumeration("luma") {
+            "rec601" => Luma::Rec601,
+            "rec709" => Luma::Rec709,
+            _ => Luma::Mean,
+        },
+        ..FeatureParams::default()
+    }
+}
+
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+    let size = d.props.int("size");
+    if size & (size - 1) != 0 {
+        return Err(Diagnostic::error(format!("the Fourier analysis size must be a power of two, not {size}"))
+            .with_code("tessera::library")
+            .with_label(d.props.span("size").unwrap_or(d.name_span), "here")
+            .with_help(format!("try `size = {}`", (size as u64).next_power_of_two() / 2)));
+    }
+    let (_, files) = d.props.dir("dir").expect("required");
+    let files: Vec<PathBuf> = files.to_vec();
+    let span = d.props.span("dir").unwrap_or(d.name_span);
+    let params = feature_params(d);
+    let key = serde_json::to_string(&params).expect("serialises");
+    let mut nodes = Vec::with_capacity(files.len());
+    let mut names = Vec::with_capacity(files.len());
+    for f in &files {
+        let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let shown = name.clone();
+        let stage = FnStage::new("library.features", 1, key.clone(), move |cx| {
+            let img = decode_entry(&cx.file(0)?, &shown)?;
+            lib::features(&img, &params).map_err(|e| StageError::new(format!("`{shown}`: {e}")).in_file(0))
+        });
+        nodes.push(p.add(format!("library {} ({name})", d.name), stage, vec![], vec![(f.clone(), span)]));
+        names.push(name);
+    }
+    let key = serde_json::json!({ "names": names }).to_string();
+    let stage = FnStage::new("library.index", 1, key, move |cx| {
+        let features = (0..cx.input_count()).map(|i| (*cx.input::<Features>(i)).clone()).collect();
+        Ok(Index { names: names.clone(), features })
+    });
+    Ok(p.add(format!("library {}", d.name), stage, nodes, vec![]))
+}
+
+/// A library file as the features see it: 8-bit-style encoded values (EXR is linear and
+/// is encoded to sRGB first), all values finite.
+fn decode_entry(bytes: &[u8], name: &str) -> Result<Image, StageError> {
+    let img =
+        raster::io::decode(bytes).map_err(|e| StageError::new(format!("cannot decode `{name}`: {e}")).in_file(0))?;
+    let bad = img.data.iter().filter(|v| !v.is_finite()).count();
+    if bad > 0 {
+        return Err(StageError::new(format!("`{name}` holds {bad} NaN or infinite value(s)")).in_file(0));
+    }
+    Ok(if raster::io::is_exr(bytes) { raster::color::image_linear_to_srgb(&img) } else { img })
+}
+
+/// Plans `similar(...)` for sample `d`: returns the query node; the caller picks the image.
+pub fn plan_similar(p: &mut Planner, d: &Decl, call: &Call) -> Result<(NodeId, Vec<PathBuf>), Diagnostic> {
+    let a = &call.args;
+    let library = a.str("library").to_string();
+    let to = a.str("to").to_string();
+    let lib_decl = p.decl(&library);
+    let (_, files) = lib_decl.props.dir("dir").expect("required");
+    let files = files.to_vec();
+    let params = feature_params(lib_decl);
+    let target_color = p.decl(&to).props.enumeration("color").to_string();
+    let key = serde_json::json!({ "features": params, "color": target_color }).to_string();
+    let stage = FnStage::new("library.target", 1, key, move |cx| {
+        let img = cx.input::<Image>(0);
+        let encoded = match target_color.as_str() {
+            "linear" => raster::color::image_linear_to_srgb(&img),
+            "lab" => raster::color::image_linear_to_srgb(&raster::color::image_lab_to_linear(&img)),
+            _ => (*img).clone(),
+        };
+        lib::features(&encoded, &params).map_err(|e| StageError::new(e.to_string()).at_prop("from"))
+    });
+    let target = p.add(format!("sample {} (features of {to})", d.name), stage, vec![p.result(&to)], vec![]);
+
+    let mut axes = Vec::new();
+    if a.bool("colour") {
+        axes.push(Axis::Colour);
+    }
+    match a.enumeration("fourier") {
+        "reim" => axes.push(Axis::Fourier(FourierMode::ReIm)),
+        "modulus" => axes.push(Axis::Fourier(FourierMode::Modulus)),
+        "magnitude" => axes.push(Axis::Fourier(FourierMode::Magnitude)),
+        "radial" => axes.push(Axis::Fourier(FourierMode::Radial)),
+        _ => {}
+    }
+    if a.bool("orientation") {
+        axes.push(Axis::Orientation);
+    }
+    if axes.is_empty() {
+        return Err(Diagnostic::error("`similar` compares nothing: every axis is off")
+            .with_code("tessera::library")
+            .with_label(call.span.unwrap_or(d.name_span), "here")
+            .with_help("enable `colour`, `fourier` or `orientation`"));
+    }
+    let k = a.int("k") as usize;
+    let pick = a.int("pick") as usize;
+    if pick > k {
+        return Err(Diagnostic::error(format!("`pick = {pick}` is beyond the {k} candidates"))
+            .with_code("tessera::library")
+            .with_label(a.span("pick").unwrap_or(d.name_span), "here"));
+    }
+    let randomness = a.num("randomness");
+    let seed = match a.get("seed") {
+        Some(Val::Int(s)) => *s as u64,
+        _ => p.seed(d, "library.similar"),
+    };
+    let query = QueryParams {
+        axes,
+        normalise: if a.enumeration("normalise") == "fixed" { Normalise::Fixed } else { Normalise::PerQueryMax },
+        // Fractions, not counts: library entries and the target need not have one size.
+        histogram: HistogramNorm::Fraction,
+        exclude: None,
+    };
+    let key =
+        serde_json::json!({ "query": query, "k": k, "randomness": randomness, "seed": seed, "to": to }).to_string();
+    let stage = FnStage::new("library.query", 1, key, move |cx| {
+        let index = cx.input::<Index>(0);
+        let target = cx.input::<Features>(1);
+        let chosen = lib::query(&index.features, &target, &query, k, randomness, seed)
+            .map_err(|e| StageError::new(e.to_string()).at_prop("from"))?;
+        Ok(Ranking {
+            target: to.clone(),
+            axes: query.axes.iter().map(axis_name).collect(),
+            candidates: chosen
+                .into_iter()
+                .map(|r| Candidate {
+                    name: index.names[r.index].clone(),
+                    index: r.index,
+                    distance: r.distance,
+                    axes: r.axes,
+                    raw: r.raw,
+                })
+                .collect(),
+        })
+    });
+    let node = p.add(format!("sample {} (query)", d.name), stage, vec![p.result(&library), target], vec![]);
+    Ok((node, files))
+}
+
+pub fn axis_name(a: &Axis) -> String {
+    match a {
+        Axis::Colour => "colour".into(),
+        Axis::Fourier(m) => format!("fourier.{}", format!("{m:?}").to_lowercase()),
+        Axis::Orientation => "orientation".into(),
+    }
+}
+
+/// A ranking as the JSON a `.json` output of the sample holds.
+pub fn ranking_json(r: &Ranking) -> Bytes {
+    let mut value = serde_json::to_value(r).expect("serialises");
+    crate::synth::structure::stats::round_json(&mut value, 1e-9);
+    let mut text = serde_json::to_string_pretty(&value).expect("serialises");
+    text.push('\n');
+    Bytes(text.into_bytes())
+}
+
+/// The candidate `pick` (1-based) of a ranking, decoded from the library's files.
+pub fn pick_bytes(
+    cx: &crate::graph::RunCx,
+    files: &[PathBuf],
+    ranking: &Arc<Ranking>,
+    pick: usize,
+) -> Result<(Arc<[u8]>, usize), StageError> {
+    let c = ranking.candidates.get(pick - 1).ok_or_else(|| {
+        StageError::new(format!(
+            "the query found only {} candidate(s), so there is no number {pick}",
+            ranking.candidates.len()
+        ))
+        .at_prop("from")
+    })?;
+    debug_assert!(c.index < files.len());
+    Ok((cx.file(c.index)?, c.index))
+}
