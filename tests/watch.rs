@@ -34,6 +34,16 @@ impl Watch {
         Watch { child, lines: rx }
     }
 
+    /// Lines until each needle has been seen (stdout and stderr interleave in any order).
+    fn until_all(&self, needles: &[&str]) -> Vec<String> {
+        let mut seen: Vec<String> = Vec::new();
+        while !needles.iter().all(|n| seen.iter().any(|l| l.contains(n))) {
+            let missing = needles.iter().find(|n| !seen.iter().any(|l| l.contains(*n))).expect("one missing");
+            seen.extend(self.until(missing));
+        }
+        seen
+    }
+
     /// Lines up to and including the first that contains `needle`.
     fn until(&self, needle: &str) -> Vec<String> {
         let deadline = Instant::now() + Duration::from_secs(20);
@@ -98,8 +108,7 @@ fn edits_rebuild_broken_edits_keep_the_output_and_fixes_recover() {
     std::thread::sleep(Duration::from_millis(20));
     p.write("scene.tess", &SCENE.replace("constant(0.25)", "constnt(0.75)"));
     // (A rebuild may first see the truncated file and fail differently; wait for this one.)
-    w.until("unknown constructor `constnt`");
-    w.until("build failed");
+    w.until_all(&["unknown constructor `constnt`", "build failed"]);
     assert!((value(&p) - 0.5).abs() < 0.003, "a failed rebuild changed the output");
 
     // The fix rebuilds.
@@ -121,4 +130,32 @@ fn watch_follows_input_files_read_by_the_build() {
     let lines = w.until("[watch] built").join("\n");
     assert!(lines.contains("map a"), "the image reader did not re-run: {lines}");
     assert!((value(&p) - 0.8).abs() < 0.003);
+}
+
+#[test]
+fn watch_follows_files_added_to_a_library_directory() {
+    let scene = r#"library lib { dir = "tex"  size = 8 }
+sample q { image = "q.png" }
+sample near { from = similar(lib, to = q, k = 1) }
+output "near.json" { from = near }
+"#;
+    let p = Project::new(&[("scene.tess", scene)]);
+    let png = |v: f32| tessera::raster::io::encode_png(&tessera::raster::Image::filled(8, 8, 3, v), 8).expect("encode");
+    p.write_bytes("q.png", &png(0.8));
+    p.write_bytes("tex/a.png", &png(0.2));
+    let w = Watch::start(&p, "scene.tess");
+    w.until("[watch] built");
+    let nearest = || {
+        let v: serde_json::Value = serde_json::from_slice(&p.read("out/scene/near.json")).expect("ranking");
+        v["candidates"][0]["name"].as_str().unwrap_or_default().to_string()
+    };
+    assert_eq!(nearest(), "a.png");
+    std::thread::sleep(Duration::from_millis(20));
+    // A new file, nearer to the target, is seen without touching the scene.
+    p.write_bytes("tex/b.png", &png(0.8));
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while nearest() != "b.png" {
+        w.until("[watch] built");
+        assert!(Instant::now() < deadline, "the new library file was not picked up");
+    }
 }
