@@ -251,3 +251,112 @@ fn compare_prints_every_measure() {
     assert!(coherence > 0.0);
     p.tessera(&["compare", "a.png", "missing.png"]).failed();
 }
+
+/// A sample whose brightness varies a lot from block to block, so a guide can steer it.
+fn patchy(w: usize, h: usize) -> Image {
+    Image::from_fn(w, h, 3, |x, y, _| {
+        let cell = ((x / 12) * 7 + (y / 12) * 13) % 5;
+        (0.1 + 0.2 * cell as f32 + 0.03 * ((x as f32 * 0.9).sin() + (y as f32 * 0.7).cos())).clamp(0.0, 1.0)
+    })
+}
+
+#[test]
+fn a_guide_steers_quilting_and_occupancy_leaves_pixels_empty() {
+    let scene = r#"scene { size = 96 x 64 }
+sample s { image = "s.png"  color = linear }
+map ramp { from = linear(from = [0, 0], to = [96, 0]) }
+map hole { from = rect(at = [60, 8], size = [24, 24])  invert = true }
+surface plane { plane = 96 x 64  occupancy = hole }
+layer guided {
+  quilt = s
+  block = 12 px
+  overlap = 3 px
+  guide = ramp
+  alpha = 0.1
+}
+layer holed {
+  quilt = s
+  on = plane
+  block = 12 px
+  overlap = 3 px
+}
+output "guided.exr" { from = guided }
+output "holed.exr" { from = holed }
+output "index.png" {
+  from = guided
+  view = index
+}
+"#;
+    let p = Project::new(&[("scene.tess", scene)]);
+    p.write_bytes("s.png", &png(&patchy(64, 64)));
+    p.tessera(&["build", "scene.tess"]).ok();
+    let g = io::decode(&p.read("out/scene/guided.exr")).unwrap();
+    let mean = |x0: usize, x1: usize| {
+        let mut s = 0.0;
+        for y in 0..64 {
+            for x in x0..x1 {
+                s += g.get(x, y, 0);
+            }
+        }
+        s / ((x1 - x0) * 64) as f32
+    };
+    let (left, right) = (mean(0, 24), mean(72, 96));
+    assert!(right > left + 0.2, "the guide did not steer: left {left}, right {right}");
+    let h = io::decode(&p.read("out/scene/holed.exr")).unwrap();
+    assert_eq!(h.get(70, 18, 0), 0.0, "a pixel outside the occupancy was filled");
+    assert!(h.get(10, 50, 0) > 0.0);
+    let index = io::decode(&p.read("out/scene/index.png")).unwrap();
+    assert_eq!((index.width, index.height, index.channels), (96, 64, 3));
+}
+
+#[test]
+fn seam_removal_reruns_only_after_the_quilting_and_flattens_the_seams() {
+    let scene = r#"scene { size = 80 x 80 }
+sample s { image = "s.png"  color = linear }
+layer l {
+  quilt = s
+  block = 20 px
+  overlap = 4 px
+  tolerance = 1
+  seams = keep
+}
+output "l.exr" { from = l }
+output "seams.png" {
+  from = l
+  view = seams
+}
+"#;
+    let p = Project::new(&[("scene.tess", scene)]);
+    p.write_bytes("s.png", &png(&patchy(48, 48)));
+    p.tessera(&["build", "scene.tess"]).ok();
+    let before = io::decode(&p.read("out/scene/l.exr")).unwrap();
+    let seams = io::decode(&p.read("out/scene/seams.png")).unwrap();
+    assert!(seams.data.iter().any(|&v| v > 0.5));
+    // Mean jump across vertical seam edges.
+    let jump = |img: &Image| {
+        let (mut sum, mut n) = (0.0, 0);
+        for y in 0..80 {
+            for x in 0..79 {
+                if seams.get(x, y, 0) > 0.5 && seams.get(x + 1, y, 0) > 0.5 {
+                    sum += (img.get(x + 1, y, 0) - img.get(x, y, 0)).abs();
+                    n += 1;
+                }
+            }
+        }
+        sum / n.max(1) as f32
+    };
+    let with = scene.replace("seams = keep", "seams = gradient");
+    p.write("scene.tess", &with);
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(ran(&stages), vec!["layer l (seams)", "output l.exr"], "the quilting re-ran");
+    let after = io::decode(&p.read("out/scene/l.exr")).unwrap();
+    let (a, b) = (jump(&before), jump(&after));
+    eprintln!("mean jump across seams: {a:.4} → {b:.4}");
+    assert!(b < 0.8 * a, "seam removal did not flatten the seams: {a} → {b}");
+    // The band width is a parameter of the seam stage only.
+    p.write("scene.tess", &with.replace("  seams = gradient\n", "  seams = gradient\n  seam_band = 6 px\n"));
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(ran(&stages), vec!["layer l (seams)", "output l.exr"]);
+}
