@@ -7,14 +7,7 @@ use common::Project;
 
 /// Builds `scene.tess` (plus extra files) and snapshots the diagnostic.
 fn diagnose(name: &str, scene: &str, extra: &[(&str, &[u8])]) -> String {
-    let p = Project::new(&[("scene.tess", scene)]);
-    for (rel, bytes) in extra {
-        p.write_bytes(rel, bytes);
-    }
-    let run = p.tessera(&["build", "scene.tess"]);
-    run.failed();
-    assert!(!p.path("out").exists(), "{name}: a failed build wrote outputs");
-    let err = run.stderr();
+    let err = common::failed_build(name, scene, extra);
     insta::assert_snapshot!(name, err);
     err
 }

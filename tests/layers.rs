@@ -24,14 +24,8 @@ fn png(img: &Image) -> Vec<u8> {
 
 /// Builds `scene.tess` (plus files) expecting failure; snapshots and returns stderr.
 fn diagnose(name: &str, scene: &str, extra: &[(&str, Vec<u8>)]) -> String {
-    let p = Project::new(&[("scene.tess", scene)]);
-    for (rel, bytes) in extra {
-        p.write_bytes(rel, bytes);
-    }
-    let run = p.tessera(&["build", "scene.tess"]);
-    run.failed();
-    assert!(!p.path("out").exists(), "{name}: a failed build wrote outputs");
-    let err = run.stderr();
+    let extra: Vec<(&str, &[u8])> = extra.iter().map(|(r, b)| (*r, b.as_slice())).collect();
+    let err = common::failed_build(name, scene, &extra);
     insta::assert_snapshot!(name, err);
     err
 }

@@ -174,3 +174,16 @@ pub fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
     out.sort();
     out
 }
+
+/// Builds `scene.tess` (plus extra files) in a fresh project, expecting a failure with nothing
+/// written; returns what was printed on stderr.
+pub fn failed_build(name: &str, scene: &str, extra: &[(&str, &[u8])]) -> String {
+    let p = Project::new(&[("scene.tess", scene)]);
+    for (rel, bytes) in extra {
+        p.write_bytes(rel, bytes);
+    }
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    assert!(!p.path("out").exists(), "{name}: a failed build wrote outputs");
+    run.stderr()
+}

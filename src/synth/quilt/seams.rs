@@ -302,26 +302,15 @@ mod tests {
     use super::super::{quilt, quilt_with, Orientation, QuiltOptions, QuiltParams};
     use super::*;
     use crate::synth::blend::{BlendError, SolverKind};
-    use crate::synth::rng::Rng;
 
-    /// Smooth value noise (period-free bilinear lattice) plus fine noise and a strong horizontal
-    /// brightness ramp, one field per channel: quilting it leaves clearly visible seams.
+    /// The quilt tests' smooth noise under a strong horizontal brightness ramp, one field per
+    /// channel: quilting it leaves clearly visible seams.
     fn ramp_texture(n: usize, channels: usize, seed: u64) -> Image {
-        let cell = 8;
-        let mut rng = Rng::new(seed);
-        let g = n / cell + 2;
-        let lattice: Vec<f32> = (0..channels * g * g).map(|_| rng.next_f32()).collect();
-        let fine: Vec<f32> = (0..channels * n * n).map(|_| rng.next_f32()).collect();
+        let noise = crate::synth::quilt::tests::noise_texture(n, channels, 8, seed);
         Image::from_fn(n, n, channels, |x, y, c| {
-            let (fx, fy) = (x as f32 / cell as f32, y as f32 / cell as f32);
-            let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
-            let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
-            let at = |i: usize, j: usize| lattice[c * g * g + j * g + i];
-            let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
-            let bot = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
             let t = x as f32 / n as f32;
             let ramp = if c % 2 == 0 { t } else { 1.0 - t };
-            0.25 * (top * (1.0 - ty) + bot * ty) + 0.05 * fine[c * n * n + y * n + x] + 0.7 * ramp
+            0.3 * noise.get(x, y, c) + 0.7 * ramp
         })
     }
 

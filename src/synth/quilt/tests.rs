@@ -7,7 +7,7 @@ use crate::synth::rng::Rng;
 
 /// Smooth value noise (bilinear on a coarse random lattice, period `n`) plus fine noise, one
 /// independent field per channel, values in about [0, 1]. No exact repeats, so no exact error ties.
-fn noise_texture(n: usize, channels: usize, cell: usize, seed: u64) -> Image {
+pub(super) fn noise_texture(n: usize, channels: usize, cell: usize, seed: u64) -> Image {
     let mut rng = Rng::new(seed);
     let g = n.div_ceil(cell);
     let lattice: Vec<f32> = (0..channels * g * g).map(|_| rng.next_f32()).collect();
