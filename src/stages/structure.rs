@@ -39,11 +39,11 @@ use crate::synth::surface::Plane;
 
 pub use super::structure_spec::SPEC;
 
-/// Generators ready for Lloyd (S1, S1e).
+/// Generators ready for Lloyd (S1, S1e): the editable set, and how sampling went.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Generators {
-    pub ellipses: Vec<Ellipse>,
-    pub frozen: Vec<bool>,
+    #[serde(flatten)]
+    pub set: edits::Generators,
     /// `N'` of statistical synthesis (the generator count before any removal).
     pub target_count: usize,
     /// Ellipses the occupancy map removed.
@@ -332,7 +332,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
                 })?;
             }
             let n = g.ellipses.len();
-            Ok(Generators { ellipses: g.ellipses, frozen: g.frozen, target_count: n, dropped: 0 })
+            Ok(Generators { set: g, target_count: n, dropped: 0 })
         });
         let s1e = p.add(format!("structure {} (edits)", d.name), s1e, vec![s2, surface], vec![]);
         s2 = plan_lloyd(p, d, s1e, surface, w, h, "lloyd after edits");
@@ -554,8 +554,7 @@ fn sample_generators(
         let moved = synthesis::perturb(&all, o.perturb, 0.0, &mut rng);
         let swapped = synthesis::swap_regions(&moved, (o.swaps * moved.len() as f64).round() as usize, &mut rng);
         let (kept, dropped) = synthesis::drop_forbidden(&swapped, w, h, plane.occupancy.plane(0), o.remove);
-        let n = kept.len();
-        return Ok(Generators { ellipses: kept, frozen: vec![false; n], target_count: all.len(), dropped });
+        return Ok(Generators { set: edits::Generators::new(kept), target_count: all.len(), dropped });
     }
     let model = &sample.model;
     let params =
@@ -600,8 +599,7 @@ fn sample_generators(
             .with_help("lower `scale` or free more of the surface"));
     }
     Ok(Generators {
-        ellipses: synthesized.generators,
-        frozen: synthesized.frozen,
+        set: edits::Generators { ellipses: synthesized.generators, frozen: synthesized.frozen },
         target_count: synthesized.target_count,
         dropped: synthesized.dropped,
     })
@@ -645,7 +643,7 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
             metric: m.metric.as_deref(),
             ..Controls::default()
         };
-        let r = lloyd::lloyd(w, h, &g.ellipses, Some(&g.frozen), &controls, &params);
+        let r = lloyd::lloyd(w, h, &g.set.ellipses, Some(&g.set.frozen), &controls, &params);
         Ok(Relaxed {
             generators: r.generators,
             frozen: r.frozen,
