@@ -54,21 +54,13 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     }
 }
 
-/// The output size of a layer: its surface's plane, or the scene size.
-pub(crate) fn layer_size(p: &Planner, d: &Decl) -> (usize, usize) {
-    if d.props.reference("quilt").is_some() {
-        if let Some(s) = d.props.reference("on") {
-            let (w, h) = p.decl(s).props.size("plane");
-            return (w as usize, h as usize);
-        }
-        return (p.scene.size.0 as usize, p.scene.size.1 as usize);
-    }
-    let first = &d.props.refs("blend")[0];
-    let src = p.decl(first);
-    match src.kind {
-        "layer" => layer_size(p, src),
-        _ => (0, 0), // a sample's size is known only once it is decoded
-    }
+/// The size of a quilted layer: its surface's plane, or the scene size.
+fn quilt_size(p: &Planner, d: &Decl) -> (usize, usize) {
+    let (w, h) = match d.props.reference("on") {
+        Some(s) => p.decl(s).props.size("plane"),
+        None => p.scene.size,
+    };
+    (w as usize, h as usize)
 }
 
 /// The colour space a layer's values are in: that of the sample it grows from (blends:
@@ -87,7 +79,7 @@ pub(crate) fn color_space<'a>(p: &'a Planner, name: &str) -> &'a str {
 
 fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnostic> {
     let props = &d.props;
-    let (w, h) = layer_size(p, d);
+    let (w, h) = quilt_size(p, d);
     let block = props.num("block").round() as usize;
     let overlap = props.opt_num("overlap").map(|o| o.round() as usize).unwrap_or((block / 6).max(1));
     if overlap >= block {
