@@ -156,7 +156,7 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnos
         if let Some(s) = props.reference("mix") {
             inputs.push(p.result(s));
         }
-        let stage = FnStage::new("layer.seams", 1, key, move |cx| {
+        let stage = FnStage::new("layer.seams", 2, key, move |cx| {
             let result = cx.input::<QuiltResult>(0);
             let samples: Vec<std::sync::Arc<Image>> = (1..cx.input_count()).map(|i| cx.input::<Image>(i)).collect();
             let refs: Vec<&Image> = samples.iter().map(|s| &**s).collect();
@@ -351,7 +351,7 @@ fn plan_blend(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let threshold = props.opt_num("threshold").map(|t| t as f32);
     let n = sources.len();
     let key = serde_json::json!({ "params": params, "threshold": threshold, "n": n, "mask": has_mask }).to_string();
-    let stage = FnStage::new("layer.blend", 1, key, move |cx| {
+    let stage = FnStage::new("layer.blend", 2, key, move |cx| {
         let images: Vec<std::sync::Arc<Image>> = (0..n).map(|i| cx.input::<Image>(i)).collect();
         let refs: Vec<&Image> = images.iter().map(|s| &**s).collect();
         if n == 1 {

@@ -38,11 +38,15 @@
 //!
 //! Values are processed as given (the thesis works on encoded values; callers wanting a
 //! linear-light blend decode first). Output floats are never clamped here: clamping and
-//! rounding belong to 8-bit export. Channels are independent and solved one after another,
-//! each solve parallel inside; every reduction has a fixed order, so the output is
-//! bit-identical for any rayon thread count.
+//! rounding belong to 8-bit export. Channels are independent: the channels that share a
+//! selector are solved together (one SIMD lane each, one multigrid hierarchy, one pass over
+//! memory for all of them), each lane with exactly the arithmetic of a one-channel solve, so
+//! a channel's result does not depend on the others. Every solve is parallel inside and
+//! every reduction has a fixed order, so the output is bit-identical for any rayon thread
+//! count.
 
 pub mod fft;
+mod lanes;
 pub mod mask;
 mod multigrid;
 mod periodic;
@@ -140,7 +144,10 @@ pub struct Solver {
     /// sources' values (digest §5: "converged" is relative residual ≤ 1e-6 and max |r| ≤
     /// 1e-3 on the 0..255 scale, hence the default 1e-3/255 of the range).
     pub max_tol: f64,
-    /// Iteration cap (CG iterations or V-cycles); reaching it sets `converged = false`.
+    /// Iteration cap (CG iterations or V-cycles) of each solve; reaching it sets
+    /// `converged = false`. Both bounds are checked on the f64 residual of the returned f32
+    /// image; when the f32 solve misses them there, up to two refinement solves follow, and a
+    /// bound below f32 precision (about 3e-7 relative) reports `converged = false`.
     pub max_iter: usize,
     /// Red-black Gauss–Seidel sweeps before and after each coarse correction.
     pub smooth: usize,
@@ -295,16 +302,8 @@ pub fn blend_warm(
     warm: Option<&Image>,
 ) -> Result<Blended, BlendError> {
     setup::validate(sources, &selector, params, warm)?;
-    let first = sources[0];
-    let mut out = Image::new(first.width, first.height, first.channels);
-    let mut reports = Vec::with_capacity(first.channels);
-    let mut cache = setup::HierarchyCache::default();
-    for c in 0..first.channels {
-        let (plane, report) = setup::blend_channel(sources, &selector, params, warm, c, &mut cache);
-        out.plane_mut(c).copy_from_slice(&plane);
-        reports.push(report);
-    }
-    Ok(Blended { image: out, reports })
+    let (image, reports) = setup::blend_all(sources, &selector, params, warm);
+    Ok(Blended { image, reports })
 }
 
 #[cfg(test)]

@@ -482,6 +482,30 @@ fn item11_solvers_agree_with_reference() {
 }
 
 #[test]
+fn converged_means_the_returned_image_meets_the_bound() {
+    // The f32 solve is refined until the f64 residual of the f32 result meets `tol`; a
+    // tolerance below f32 precision cannot be met and must say so rather than claim it.
+    let (w, h) = (160, 128);
+    let a = noise(w, h, 3, 31, 2, 0.0, 255.0);
+    let b = noise(w, h, 3, 32, 2, 0.0, 255.0);
+    let m = disc(w, h, 80.0, 64.0, 50.0);
+    for topology in [Topology::Torus, Topology::Rim { source: 0 }] {
+        for (tol, reachable) in [(1e-6, true), (1e-9, false)] {
+            let mut p = params();
+            p.topology = topology;
+            p.solver.tol = tol;
+            p.solver.max_iter = 40;
+            for r in blend_two(&a, &b, &m, &p).unwrap().reports {
+                assert_eq!(r.converged, reachable, "{topology:?} tol {tol:e}: {r:?}");
+                if reachable {
+                    assert!(r.residual <= tol && r.max_residual <= TOL_255, "{r:?}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn item11_iterations_are_mesh_independent() {
     let mut counts = Vec::new();
     for n in [128usize, 256, 512, 1024] {
@@ -765,6 +789,27 @@ fn tiny_and_odd_sizes_converge() {
             let out = blend_two(&a, &b, &m, &p).unwrap();
             let r = out.reports[0];
             assert!(r.converged && r.max_residual <= TOL_255, "{w}x{h} {topology:?}: {r:?}");
+        }
+    }
+}
+
+#[test]
+fn batched_channels_match_single_channel_solves_bitwise() {
+    // Channels are solved together (up to four lanes per batch); each must get exactly the
+    // one-channel result: five channels (a batch of four and one alone), both topologies,
+    // an odd size (odd wrap) and one large enough for the parallel paths.
+    for (w, h, topology) in [(61, 47, Topology::Torus), (64, 48, Topology::Open), (300, 260, Topology::Torus)] {
+        let a = noise(w, h, 5, 70, 1, 0.0, 255.0);
+        let b = noise(w, h, 5, 71, 1, 0.0, 255.0);
+        let m = disc(w, h, w as f64 / 2.0, h as f64 / 2.0, w.min(h) as f64 * 0.4);
+        let p = BlendParams { topology, ..params() };
+        let all = blend_two(&a, &b, &m, &p).unwrap();
+        for c in 0..5 {
+            let one = |img: &Image| Image { width: w, height: h, channels: 1, data: img.plane(c).to_vec() };
+            let single = blend_two(&one(&a), &one(&b), &m, &p).unwrap();
+            assert_eq!(single.image.data, all.image.plane(c), "{w}x{h} {topology:?} channel {c}");
+            assert_eq!(single.reports[0].iterations, all.reports[c].iterations);
+            assert!(all.reports[c].converged && all.reports[c].residual <= 1e-6, "{:?}", all.reports[c]);
         }
     }
 }

@@ -531,16 +531,11 @@ mod tests {
 
     #[test]
     fn every_channel_converges() {
-        // The blend stops on its own residual, but reports the residual recomputed in f64 from the
-        // returned f32 image, which can land just above `tol` (1.04e-6 on this torus with the
-        // default 1e-6). A tenfold tighter `tol` costs 2–3 iterations and reaches the f32 floor
-        // (≈3.5e-7 here).
-        for (tileable, kind, tol, bound) in [
-            (false, SolverKind::Mgpcg, 1e-6, 1e-6),
-            (false, SolverKind::Multigrid, 1e-6, 1e-6),
-            (true, SolverKind::Mgpcg, 1e-6, 1.5e-6),
-            (true, SolverKind::Mgpcg, 1e-7, 1e-6),
-        ] {
+        // The blend refines its f32 solve until the f64 residual of the returned image meets
+        // `tol`, so every report that says converged is within it.
+        for (tileable, kind) in [(false, SolverKind::Mgpcg), (false, SolverKind::Multigrid), (true, SolverKind::Mgpcg)]
+        {
+            let tol = 1e-6;
             let (sample, r) = quilt_ramp(tileable, 24, 4);
             let sp = SeamParams { solver: Solver { kind, tol, ..Solver::default() }, ..SeamParams::default() };
             let d = remove_seams(&r, &[&sample], &sp).unwrap();
@@ -550,7 +545,7 @@ mod tests {
                     "tileable {tileable}, {kind:?}, tol {tol:.0e}: {} its, residual {:.2e}, max {:.2e}",
                     rep.iterations, rep.residual, rep.max_residual
                 );
-                assert!(rep.converged && rep.residual <= bound && rep.unknowns > 0, "{rep:?}");
+                assert!(rep.converged && rep.residual <= tol && rep.unknowns > 0, "{rep:?}");
             }
         }
     }
