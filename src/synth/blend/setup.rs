@@ -738,37 +738,63 @@ fn guidance(g: &Graph, srcs: &[&[f32]], sel: &ChanSel<'_>, params: &BlendParams)
 }
 
 /// Two sources, labels 0/1, insert seams (the thesis's case): the edge takes source 1's
-/// difference when either end is labelled 1. Row slices and a branch-free select keep the
-/// loops vectorisable.
+/// difference when either end is labelled 1.
 fn binary_insert_guidance(g: &Graph, a: &[f32], b: &[f32], l: &[u32], zero_wrap: bool) -> (Vec<f32>, Vec<f32>) {
-    let (w, h) = (g.w, g.h);
-    let mut tx = vec![0.0f32; w * h];
-    let mut ty = vec![0.0f32; w * h];
+    let w = g.w;
+    let mut tx = vec![0.0f32; w * g.h];
+    let mut ty = vec![0.0f32; w * g.h];
+    tx.par_chunks_mut(w)
+        .zip(ty.par_chunks_mut(w))
+        .enumerate()
+        .with_min_len(8)
+        .for_each(|(y, (rx, ry))| binary_insert_row(g, a, b, l, zero_wrap, y, rx, ry));
+    (tx, ty)
+}
+
+/// Start of the row below row `y` whose edge to `y` carries guidance: the next row, on a
+/// torus the first row after the last (unless the wrap carries none), else none.
+fn below(g: &Graph, y: usize, zero_wrap: bool) -> Option<usize> {
+    if y + 1 < g.h {
+        Some((y + 1) * g.w)
+    } else if g.periodic && !zero_wrap {
+        Some(0)
+    } else {
+        None
+    }
+}
+
+/// Row `y` of [`binary_insert_guidance`], every value of `rx` and `ry` written. Row slices
+/// and a branch-free select keep the loops vectorisable.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn binary_insert_row(
+    g: &Graph,
+    a: &[f32],
+    b: &[f32],
+    l: &[u32],
+    zero_wrap: bool,
+    y: usize,
+    rx: &mut [f32],
+    ry: &mut [f32],
+) {
+    let w = g.w;
     let pick = |lp: u32, lq: u32, da: f32, db: f32| if (lp | lq) != 0 { db } else { da };
-    tx.par_chunks_mut(w).zip(ty.par_chunks_mut(w)).enumerate().with_min_len(8).for_each(|(y, (rx, ry))| {
-        let row = y * w;
-        let (ar, br, lr) = (&a[row..row + w], &b[row..row + w], &l[row..row + w]);
-        for x in 0..w - 1 {
-            rx[x] = pick(lr[x], lr[x + 1], ar[x + 1] - ar[x], br[x + 1] - br[x]);
-        }
-        if g.periodic {
-            rx[w - 1] = if zero_wrap { 0.0 } else { pick(lr[w - 1], lr[0], ar[0] - ar[w - 1], br[0] - br[w - 1]) };
-        }
-        let next = if y + 1 < h {
-            Some(row + w)
-        } else if g.periodic && !zero_wrap {
-            Some(0)
-        } else {
-            None
-        };
-        if let Some(nr) = next {
+    let row = y * w;
+    let (ar, br, lr) = (&a[row..row + w], &b[row..row + w], &l[row..row + w]);
+    for x in 0..w - 1 {
+        rx[x] = pick(lr[x], lr[x + 1], ar[x + 1] - ar[x], br[x + 1] - br[x]);
+    }
+    rx[w - 1] =
+        if g.periodic && !zero_wrap { pick(lr[w - 1], lr[0], ar[0] - ar[w - 1], br[0] - br[w - 1]) } else { 0.0 };
+    match below(g, y, zero_wrap) {
+        Some(nr) => {
             let (an, bn, ln) = (&a[nr..nr + w], &b[nr..nr + w], &l[nr..nr + w]);
             for x in 0..w {
                 ry[x] = pick(lr[x], ln[x], an[x] - ar[x], bn[x] - br[x]);
             }
         }
-    });
-    (tx, ty)
+        None => ry.fill(0.0),
+    }
 }
 
 /// [`binary_insert_guidance`] fused with the composite (written into `f`) and the sources'
@@ -785,7 +811,6 @@ fn binary_insert_prep(
     // Scratch planes (every value is written below).
     let mut tx = f32::pool().take(w * h);
     let mut ty = f32::pool().take(w * h);
-    let pick = |lp: u32, lq: u32, da: f32, db: f32| if (lp | lq) != 0 { db } else { da };
     let (lo, hi) = tx
         .par_chunks_mut(w)
         .zip(ty.par_chunks_mut(w))
@@ -798,30 +823,7 @@ fn binary_insert_prep(
             for x in 0..w {
                 fr[x] = if lr[x] != 0 { br[x] } else { ar[x] };
             }
-            for x in 0..w - 1 {
-                rx[x] = pick(lr[x], lr[x + 1], ar[x + 1] - ar[x], br[x + 1] - br[x]);
-            }
-            rx[w - 1] = if g.periodic && !zero_wrap {
-                pick(lr[w - 1], lr[0], ar[0] - ar[w - 1], br[0] - br[w - 1])
-            } else {
-                0.0
-            };
-            let next = if y + 1 < h {
-                Some(row + w)
-            } else if g.periodic && !zero_wrap {
-                Some(0)
-            } else {
-                None
-            };
-            match next {
-                Some(nr) => {
-                    let (an, bn, ln) = (&a[nr..nr + w], &b[nr..nr + w], &l[nr..nr + w]);
-                    for x in 0..w {
-                        ry[x] = pick(lr[x], ln[x], an[x] - ar[x], bn[x] - br[x]);
-                    }
-                }
-                None => ry.fill(0.0),
-            }
+            binary_insert_row(g, a, b, l, zero_wrap, y, rx, ry);
             let (l0, h0) = chunk_range(ar);
             let (l1, h1) = chunk_range(br);
             (l0.min(l1), h0.max(h1))
@@ -845,14 +847,7 @@ fn fill_guidance(g: &Graph, params: &BlendParams, target: impl Fn(usize, usize) 
         if g.periodic {
             rx[w - 1] = if zero_wrap { 0.0 } else { target(row + w - 1, row) };
         }
-        let next = if y + 1 < h {
-            Some(row + w)
-        } else if g.periodic && !zero_wrap {
-            Some(0)
-        } else {
-            None
-        };
-        if let Some(nr) = next {
+        if let Some(nr) = below(g, y, zero_wrap) {
             for (x, v) in ry.iter_mut().enumerate() {
                 *v = target(row + x, nr + x);
             }
