@@ -30,21 +30,25 @@ pub fn watch(project: &mut Project, scene: &Path, debounce: Duration, mut on: im
         Ok(w) => w,
         Err(e) => return on(WatchEvent::Error(format!("cannot watch files: {e}"))),
     };
+    // The scene is followed before the first build, and each build's files before its
+    // report: an edit made while building, or by someone reacting to the report, is queued
+    // and seen by the next wait rather than lost.
+    if let Err(e) = watcher.follow([scene.to_path_buf()]) {
+        return on(WatchEvent::Error(format!("cannot watch files: {e}")));
+    }
     loop {
         let start = Instant::now();
         project.world.begin_build();
-        match project.build(scene).and_then(|b| project.emit(&b).map(|e| (b, e))) {
-            Ok((built, emitted)) => on(WatchEvent::Built {
-                built: &built,
-                emitted: &emitted,
-                millis: start.elapsed().as_secs_f64() * 1000.0,
-            }),
-            Err(failed) => on(WatchEvent::Failed { failed: &failed }),
-        }
+        let result = project.build(scene).and_then(|b| project.emit(&b).map(|e| (b, e)));
+        let millis = start.elapsed().as_secs_f64() * 1000.0;
         let mut files: Vec<PathBuf> = project.world.accessed();
         files.push(scene.to_path_buf());
         if let Err(e) = watcher.follow(files) {
             return on(WatchEvent::Error(format!("cannot watch files: {e}")));
+        }
+        match &result {
+            Ok((built, emitted)) => on(WatchEvent::Built { built, emitted, millis }),
+            Err(failed) => on(WatchEvent::Failed { failed }),
         }
         if watcher.wait(debounce).is_none() {
             return;
