@@ -157,7 +157,7 @@ pub static SPEC: KindSpec = KindSpec {
             "metric",
             Ty::Enum(&["elliptic", "manhattan", "chebyshev"]),
             Default::Text("elliptic"),
-            "Distance used by the Voronoi step.",
+            "Distance used by the Voronoi step, on `(u/a, v/b)` in each ellipse's frame: `elliptic` (the thesis's, rounded cells), `manhattan` (L1: Lloyd makes square tiles turned 45° from the ellipse axes), `chebyshev` (L∞).",
         ),
         p(
             "metric_map",

@@ -7,7 +7,7 @@
 //! * elliptic:  `d = sqrt((u/a)² + (v/b)²)` — equal to the thesis's `‖p − c‖ / r(α)` with the
 //!   polar radius `r(α)² = b² / (1 − e² cos² α)`, `α` measured from the major axis;
 //! * Manhattan: `d = |u/a| + |v/b|` (diamond-shaped unit ball aligned with the ellipse axes,
-//!   square tiles when the generators sit on a grid);
+//!   Lloyd under it turns cells into squares at 45° to the ellipse axes: F19 test);
 //! * Chebyshev: `d = max(|u/a|, |v/b|)` (rectangular unit ball circumscribing the ellipse).
 //!
 //! All three are `1` on the boundary of their unit ball, `0` at the centre, positively

@@ -348,6 +348,7 @@ pub fn drop_forbidden(
 mod tests {
     use super::super::lloyd::test_support::*;
     use super::super::lloyd::{lloyd, LloydParams, LloydResult};
+    use super::super::metric::MetricKind;
     use super::super::types::NO_REGION;
     use super::super::voronoi::region_sizes;
     use super::*;
@@ -724,5 +725,78 @@ mod tests {
             spreads.push(conc);
         }
         assert!(spreads[1] > spreads[0], "spread not smaller with the map");
+    }
+
+    /// Squareness of every interior region: over box orientations φ in 1° steps, the largest
+    /// `area / (4·max|u|·max|v|)` with `(u, v)` the pixel centres relative to the region's
+    /// centroid in the frame turned by φ, with `max|u| / max|v|` in that frame and φ (a square
+    /// gives 1 and 1 in its own frame; a disc π/4, a regular hexagon 3/4).
+    fn squareness(r: &LloydResult) -> Vec<(f64, f64, f64)> {
+        let fits = fit_regions(&r.labels, r.generators.len());
+        let w = r.labels.width;
+        let mut pixels: Vec<Vec<[f64; 2]>> = vec![Vec::new(); fits.len()];
+        for (i, &g) in r.labels.data.iter().enumerate() {
+            if let Some(Some(f)) = fits.get(g as usize) {
+                let c = f.ellipse.center;
+                pixels[g as usize].push([(i % w) as f64 + 0.5 - c[0], (i / w) as f64 + 0.5 - c[1]]);
+            }
+        }
+        let best = |px: &[[f64; 2]], area: f64| {
+            (0..90)
+                .map(|deg| {
+                    let (sn, cs) = (deg as f64).to_radians().sin_cos();
+                    let (mut eu, mut ev) = (0.0f64, 0.0f64);
+                    for &[dx, dy] in px {
+                        eu = eu.max((dx * cs + dy * sn).abs() + 0.5);
+                        ev = ev.max((-dx * sn + dy * cs).abs() + 0.5);
+                    }
+                    (area / (4.0 * eu * ev), eu / ev, deg as f64)
+                })
+                .fold((0.0, 0.0, 0.0), |a, b| if b.0 > a.0 { b } else { a })
+        };
+        fits.iter()
+            .zip(&pixels)
+            .filter_map(|(f, px)| f.as_ref().filter(|f| !f.border).map(|f| best(px, f.area)))
+            .collect()
+    }
+
+    /// F19: a Manhattan metric map makes square tiles. From random round generators, Lloyd
+    /// under the elliptic metric gives roughly hexagonal cells; under `|u/a| + |v/b|` the cells
+    /// become squares turned 45° from the ellipse axes (the diamond of the L1 unit ball): they
+    /// fill more of their best box, that box sits near 45°, and its two extents are within 15 %.
+    #[test]
+    fn f19_metric_map_makes_square_tiles() {
+        let (w, h) = (320, 320);
+        let mut rng = Rng::new(193);
+        let gens: Vec<Ellipse> = (0..256)
+            .map(|_| Ellipse {
+                center: [rng.range(0.0, w as f64), rng.range(0.0, h as f64)],
+                a: 10.0,
+                b: 10.0,
+                theta: 0.0,
+            })
+            .collect();
+        let manhattan = vec![MetricKind::Manhattan; w * h];
+        let mut fills = Vec::new();
+        for map in [None, Some(&manhattan[..])] {
+            let controls = Controls { metric: map, ..Default::default() };
+            let r = lloyd(w, h, &gens, None, &controls, &LloydParams::default());
+            let sq = squareness(&r);
+            let mean = |f: &dyn Fn(&(f64, f64, f64)) -> f64| sq.iter().map(f).sum::<f64>() / sq.len() as f64;
+            let (fill, ratio) = (mean(&|x| x.0), mean(&|x| x.1));
+            let diamonds = mean(&|x| f64::from((x.2 - 45.0).abs() <= 10.0));
+            eprintln!(
+                "F19 metric map {}: {} regions, box fill {fill:.3}, extent ratio {ratio:.3}, box within 10° of 45°: {:.0} %",
+                if map.is_some() { "Manhattan" } else { "none" },
+                sq.len(),
+                diamonds * 100.0
+            );
+            if map.is_some() {
+                assert!((ratio - 1.0).abs() <= 0.15, "extent ratio {ratio}");
+                assert!(diamonds >= 0.6, "only {diamonds} of the boxes sit near 45°");
+            }
+            fills.push(fill);
+        }
+        assert!(fills[1] >= fills[0] + 0.05, "Manhattan regions are not squarer: {fills:?}");
     }
 }
