@@ -1,5 +1,6 @@
 //! The algorithms: pure functions on plain data. No file I/O, no cache, no graph.
 pub mod blend;
+pub mod fft;
 pub mod library;
 pub mod map;
 pub mod metrics;

@@ -28,8 +28,8 @@
 //! column 0 equals column W−1 and row 0 equals row H−1: the literal reading T2) or `Open`
 //! (no wrap, Neumann at the image border).
 //!
-//! Solvers: `Whole` on `Torus` is solved exactly by FFT (periodic), on `Open` by the DCT
-//! (Neumann, via an even extension); everything else by multigrid-preconditioned conjugate
+//! Solvers: `Whole` on `Torus` is solved exactly by a real FFT (periodic), on `Open` by the
+//! DCT (Neumann; both in `spectral`, on `synth::fft`); everything else by multigrid-preconditioned conjugate
 //! gradients (default) or plain multigrid V-cycles on the free pixels (see `multigrid`).
 //! The masked solvers work on the correction `u = f − f₀` from the composite `f₀`, which is
 //! smooth, and stop at `‖b − L f‖₂ ≤ tol·‖b‖₂` (digest §5 "converged"); each channel's
@@ -45,12 +45,12 @@
 //! every reduction has a fixed order, so the output is bit-identical for any rayon thread
 //! count.
 
-pub mod fft;
 mod lanes;
 pub mod mask;
 mod multigrid;
 mod periodic;
 mod setup;
+mod spectral;
 
 use std::fmt;
 

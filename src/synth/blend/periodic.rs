@@ -1,6 +1,6 @@
 //! Making a non-tileable image periodic, and measuring how tileable an image is.
 
-use super::fft::solve_periodic;
+use super::spectral::solve_periodic;
 use crate::raster::Image;
 
 /// The periodic component of the periodic-plus-smooth decomposition (Moisan 2011,

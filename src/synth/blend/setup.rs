@@ -4,9 +4,9 @@ use std::borrow::Cow;
 
 use rayon::prelude::*;
 
-use super::fft::{solve_neumann, solve_periodic};
 use super::lanes::{F32x4, Lanes, Pooled};
 use super::multigrid::{self, CycleParams, Driver, Hierarchy, Level, SolveBuffers, Stop};
+use super::spectral::{solve_neumann, solve_periodic};
 use super::{BlendError, BlendParams, Domain, Method, Mode, Seam, Selector, SolveReport, SolverKind, Topology};
 use super::{Image, WrapGuidance};
 

@@ -5,8 +5,8 @@ use serde::{Deserialize, Serialize};
 
 use super::LibraryError;
 use crate::raster::Image;
-use crate::synth::blend::fft::fft_real;
 use crate::synth::blend::mask::Luma;
+use crate::synth::fft::fft_real;
 
 /// How features are computed. Features computed with different settings do not compare.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -19,12 +19,11 @@
 //! measure ignores phase (invariant to circular shifts without the window) and, being a
 //! radial average, is nearly rotation invariant (exactly for 90° turns of a square image).
 
-use rustfft::num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
 use super::luma;
 use crate::raster::Image;
-use crate::synth::blend::fft::Fft2;
+use crate::synth::fft::RealFft2;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SpectrumParams {
@@ -64,16 +63,22 @@ pub fn radial_power_spectrum(img: &Image, params: &SpectrumParams) -> Vec<(f64, 
     };
     let wx: Vec<f64> = (0..w).map(|x| hann(x, w)).collect();
     let wy: Vec<f64> = (0..h).map(|y| hann(y, h)).collect();
-    let mut data: Vec<Complex64> = Vec::with_capacity(w * h);
+    let mut data: Vec<f64> = Vec::with_capacity(w * h);
     let mut wsum = 0.0;
     for y in 0..h {
         for x in 0..w {
             let win = wx[x] * wy[y];
             wsum += win * win;
-            data.push(Complex64::new((g[y * w + x] as f64 - mean) * win, 0.0));
+            data.push((g[y * w + x] as f64 - mean) * win);
         }
     }
-    Fft2::new(w, h).forward(&mut data);
+    let fft = RealFft2::new(w, h);
+    let spec = fft.forward(&data);
+    // The spectrum of real data is Hermitian: |F(k)| = |F(−k)| gives the other half.
+    let power = |kx: usize, ky: usize| {
+        let i = if kx < fft.half_width() { fft.index(kx, ky) } else { fft.index(w - kx, (h - ky) % h) };
+        spec[i].norm_sqr()
+    };
     for ky in 0..h {
         let fy = if ky <= h / 2 { ky as f64 } else { ky as f64 - h as f64 } / h as f64;
         for kx in 0..w {
@@ -83,7 +88,7 @@ pub fn radial_power_spectrum(img: &Image, params: &SpectrumParams) -> Vec<(f64, 
                 continue;
             }
             let bin = ((rho / 0.5 * bins as f64) as usize).min(bins - 1);
-            prof[bin].0 += data[ky * w + kx].norm_sqr() / wsum;
+            prof[bin].0 += power(kx, ky) / wsum;
             prof[bin].1 += 1;
         }
     }

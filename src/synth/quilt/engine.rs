@@ -5,7 +5,6 @@ use std::f64::consts::TAU;
 use rayon::prelude::*;
 
 use super::cut::new_region;
-use super::fft::Plan;
 use super::params::{
     check_finite_image, check_range, check_size, Coherence, Equalise, Metric, QuiltError, QuiltOptions, QuiltParams,
     SampleChoice,
@@ -15,6 +14,7 @@ use super::search::{direct_error, prepare_spectra, random_choice, search, Choice
 use super::{BlockRecord, IndexMap, QuiltResult, SourceInfo};
 use crate::raster::color::linear_rgb_to_lab;
 use crate::raster::Image;
+use crate::synth::fft::correlate::Plan;
 use crate::synth::rng::Rng;
 
 /// What a test observer sees after each placed block.

@@ -38,7 +38,6 @@
 
 mod cut;
 mod engine;
-mod fft;
 mod params;
 mod pixel;
 mod rotate;

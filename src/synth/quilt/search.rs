@@ -21,9 +21,9 @@
 
 use rayon::prelude::*;
 
-use super::fft::{mul_conj_acc, Cx, Plan, Real};
 use super::params::Metric;
 use crate::raster::Image;
+use crate::synth::fft::correlate::{mul_conj_acc, Cx, Plan, Real};
 use crate::synth::rng::Rng;
 
 /// One source image that blocks are copied from: an input sample, possibly rotated.

@@ -1,4 +1,5 @@
-//! 2-D FFT cross-correlation of a small template against a whole sample, for SSD candidate scoring.
+//! 2-D FFT cross-correlation of a small template against a whole sample, for quilting's SSD
+//! candidate scoring.
 //!
 //! Two real planes travel in one complex plane (`re + i·im`): for real `a, b, s, t`,
 //! `Re(conj(a + i·b)·(s + i·t)) = a·s + b·t`, so the real part of the correlation of the packed template
@@ -15,17 +16,15 @@ use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
+use super::{fft_rows, min_len, transpose, PAD};
+
 /// Floating type of the transforms. f64 keeps the rounding bound far below any error difference that
 /// matters, so the exact re-scoring shortlist stays tiny.
-pub(super) type Real = f64;
-pub(super) type Cx = Complex<Real>;
-
-/// Rows per parallel task; fixed so the work split never depends on the thread count (the results
-/// would not either, but this keeps scheduling predictable).
-const ROWS_PER_TASK: usize = 8;
+pub(crate) type Real = f64;
+pub(crate) type Cx = Complex<Real>;
 
 /// Smallest `m ≥ n` whose prime factors are 2, 3 and 5.
-pub(super) fn fast_len(n: usize) -> usize {
+pub(crate) fn fast_len(n: usize) -> usize {
     let mut m = n.max(1);
     loop {
         let mut r = m;
@@ -41,11 +40,8 @@ pub(super) fn fast_len(n: usize) -> usize {
     }
 }
 
-/// Row padding (complex values, one cache line): power-of-two row strides would map a column's
-/// elements to the same cache set and make the transposes thrash.
-const PAD: usize = 4;
-
-pub(super) struct Plan {
+/// Transforms padded to the 5-smooth size `nx × ny` of the largest sample.
+pub(crate) struct Plan {
     pub nx: usize,
     pub ny: usize,
     /// Row strides of the x-major scratch rows (`nx + PAD`) and of the transposed spectra (`ny + PAD`).
@@ -55,54 +51,6 @@ pub(super) struct Plan {
     fwd_y: Arc<dyn Fft<Real>>,
     inv_x: Arc<dyn Fft<Real>>,
     inv_y: Arc<dyn Fft<Real>>,
-}
-
-/// Minimum items per rayon task: 1 when parallel, "never split" otherwise (sequential, no overhead).
-fn min_len(par: bool, n: usize) -> usize {
-    if par {
-        n
-    } else {
-        usize::MAX
-    }
-}
-
-/// Transforms every row (`n` values at the start of each `stride`-long row) in place.
-fn fft_rows(fft: &Arc<dyn Fft<Real>>, data: &mut [Cx], n: usize, stride: usize, par: bool) {
-    if data.is_empty() {
-        return;
-    }
-    let scratch_len = fft.get_inplace_scratch_len();
-    data.par_chunks_mut(stride * ROWS_PER_TASK).with_min_len(min_len(par, 1)).for_each_init(
-        || vec![Cx::new(0.0, 0.0); scratch_len],
-        |scratch, chunk| {
-            for row in chunk.chunks_mut(stride) {
-                fft.process_with_scratch(&mut row[..n], scratch);
-            }
-        },
-    );
-}
-
-/// Side of the square tiles of the cache-blocked transposes.
-const TILE: usize = 32;
-
-/// `dst[c * dst_stride + r] = src[r * src_stride + c]` for `r < rows, c < cols`, tiled; parallel over
-/// bands of destination rows (each destination element written once, by one task).
-fn transpose(src: &[Cx], src_stride: usize, rows: usize, cols: usize, dst: &mut [Cx], dst_stride: usize, par: bool) {
-    dst[..cols * dst_stride].par_chunks_mut(TILE * dst_stride).with_min_len(min_len(par, 1)).enumerate().for_each(
-        |(band, out)| {
-            let c0 = band * TILE;
-            let c1 = (c0 + TILE).min(cols);
-            for r0 in (0..rows).step_by(TILE) {
-                let r1 = (r0 + TILE).min(rows);
-                for c in c0..c1 {
-                    let o = &mut out[(c - c0) * dst_stride..];
-                    for r in r0..r1 {
-                        o[r] = src[r * src_stride + c];
-                    }
-                }
-            }
-        },
-    );
 }
 
 impl Plan {
@@ -175,7 +123,7 @@ impl Plan {
 
 /// `acc[i] (+)= conj(t[i]) · s[i]` (assigns when `first`), in parallel chunks; each element has a
 /// fixed operation order.
-pub(super) fn mul_conj_acc(acc: &mut [Cx], t: &[Cx], s: &[Cx], first: bool, par: bool) {
+pub(crate) fn mul_conj_acc(acc: &mut [Cx], t: &[Cx], s: &[Cx], first: bool, par: bool) {
     acc.par_chunks_mut(4096).with_min_len(min_len(par, 1)).zip(t.par_chunks(4096)).zip(s.par_chunks(4096)).for_each(
         |((a, t), s)| {
             if first {
