@@ -306,5 +306,15 @@ pub fn blend_warm(
     Ok(Blended { image, reports })
 }
 
+/// Cell `i` of a line of `len` cells: wrapped on a torus, `None` past a rim.
+#[inline]
+fn wrap_or_skip(i: isize, len: usize, periodic: bool) -> Option<usize> {
+    if periodic {
+        Some(i.rem_euclid(len as isize) as usize)
+    } else {
+        usize::try_from(i).ok().filter(|&i| i < len)
+    }
+}
+
 #[cfg(test)]
 mod tests;

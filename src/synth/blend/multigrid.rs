@@ -56,6 +56,7 @@
 use rayon::prelude::*;
 
 use super::lanes::{par_copy, Lanes, Pooled};
+use super::wrap_or_skip;
 
 /// How coarse cells inherit the free/fixed label of their 2 × 2 children.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
@@ -664,14 +665,7 @@ impl Level {
                     let mut dots = Vec::new();
                     for k in 1..ns {
                         for d in -(k as isize)..k as isize {
-                            let y = yb as isize + d;
-                            let y = if self.periodic {
-                                y.rem_euclid(h as isize) as usize
-                            } else if y < 0 || y >= h as isize {
-                                continue;
-                            } else {
-                                y as usize
-                            };
+                            let Some(y) = wrap_or_skip(yb as isize + d, h, self.periodic) else { continue };
                             if active(y) {
                                 apply(k, y, &mut v, &mut dots);
                             }
@@ -1023,14 +1017,7 @@ fn chebyshev_distance(lv: &Level, cap: u8) -> Vec<u8> {
     let mut out = vec![cap; w * h];
     out.par_chunks_mut(w).enumerate().with_min_len(16).for_each(|(y, o)| {
         for d in -(r as isize)..=r as isize {
-            let yy = y as isize + d;
-            let yy = if periodic {
-                yy.rem_euclid(h as isize) as usize
-            } else if yy < 0 || yy >= h as isize {
-                continue;
-            } else {
-                yy as usize
-            };
+            let Some(yy) = wrap_or_skip(y as isize + d, h, periodic) else { continue };
             let dd = d.unsigned_abs() as u8;
             for (ov, &av) in o.iter_mut().zip(&rowd[yy * w..(yy + 1) * w]) {
                 *ov = (*ov).min(av.max(dd));

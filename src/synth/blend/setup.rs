@@ -7,8 +7,8 @@ use rayon::prelude::*;
 use super::lanes::{F32x4, Lanes, Pooled};
 use super::multigrid::{self, CycleParams, Driver, Hierarchy, Level, SolveBuffers, Stop};
 use super::spectral::{solve_neumann, solve_periodic};
+use super::{wrap_or_skip, Image, WrapGuidance};
 use super::{BlendError, BlendParams, Domain, Method, Mode, Seam, Selector, SolveReport, SolverKind, Topology};
-use super::{Image, WrapGuidance};
 
 /// Rows per reduction block in this file's f64 sums (fixed: thread-count independent).
 const ROWS_PER_BLOCK: usize = 16;
@@ -658,14 +658,7 @@ fn dilate(m: &[u8], w: usize, h: usize, r: usize, periodic: bool) -> Vec<u8> {
                 let mut v = 0u8;
                 let ri = r as isize;
                 for d in -ri..=ri {
-                    let j = i as isize + d;
-                    let j = if periodic {
-                        j.rem_euclid(len as isize) as usize
-                    } else if j < 0 || j >= len as isize {
-                        continue;
-                    } else {
-                        j as usize
-                    };
+                    let Some(j) = wrap_or_skip(i as isize + d, len, periodic) else { continue };
                     v |= src[base + j * step];
                     if v != 0 {
                         break;
