@@ -262,3 +262,65 @@ fn pruned_dangling_edges_are_reported() {
         run.stderr()
     );
 }
+
+/// Region areas of `labels.png` (one colour per region) whose centroid lies in the left and
+/// in the right quarter of the image.
+fn areas_by_side(p: &Project) -> (Vec<f64>, Vec<f64>) {
+    let img = tessera::raster::io::decode(&p.read("out/scene/labels.png")).expect("decode");
+    let (w, h) = (img.width, img.height);
+    let mut regions: std::collections::HashMap<[u32; 3], (f64, f64)> = Default::default();
+    for y in 0..h {
+        for x in 0..w {
+            let key = [0, 1, 2].map(|c| (img.get(x, y, c) * 255.0).round() as u32);
+            let r = regions.entry(key).or_default();
+            r.0 += 1.0;
+            r.1 += x as f64 + 0.5;
+        }
+    }
+    let (mut left, mut right) = (Vec::new(), Vec::new());
+    for (area, sx) in regions.into_values() {
+        let cx = sx / area;
+        if cx < w as f64 / 4.0 {
+            left.push(area);
+        } else if cx > w as f64 * 0.75 {
+            right.push(area);
+        }
+    }
+    (left, right)
+}
+
+/// The size map reaches Lloyd as well as the sampling, in both modes. The left half of the map
+/// is dark: in `scale` mode the area ratio of left to right regions is near `size_min²`; in
+/// `fixed` mode left regions have about `π·size_fixed²` and right ones the size they have
+/// without a map (were Lloyd blind to the map, the small regions would take area from the large).
+#[test]
+fn a_size_map_shrinks_regions_through_lloyd_in_both_modes() {
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let base = SCENE
+        .replace("  density = dens\n", "  scale = 0.8\nMODE")
+        .replace(
+            "map dens { from = linear(from = [0, 0], to = [192, 0]) }",
+            "map half {\n  from = linear(from = [0, 0], to = [192, 0])\n  threshold = 0.5\n}",
+        )
+        .replace("iterations = 10", "iterations = 30");
+    let sides = |mode: &str| {
+        let p = project(&base.replace("MODE", mode));
+        p.build_report(&["scene.tess"]).0.ok();
+        let (left, right) = areas_by_side(&p);
+        let (l, r) = (mean(&left), mean(&right));
+        eprintln!(
+            "{}: left {} regions, mean {l:.1} px; right {} regions, mean {r:.1} px",
+            mode.trim(),
+            left.len(),
+            right.len()
+        );
+        (l, r)
+    };
+    let (_, plain) = sides("");
+    let (l, r) = sides("  size = half\n  size_min = 0.4\n");
+    assert!((l / r / 0.16 - 1.0).abs() < 0.5, "scale: area ratio {} not near 0.4² = 0.16", l / r);
+    let (l, r) = sides("  size = half\n  size_mode = fixed\n  size_fixed = 4 px\n");
+    let want = std::f64::consts::PI * 16.0;
+    assert!((l / want - 1.0).abs() < 0.35, "fixed: left mean area {l}, want about {want}");
+    assert!((r / plain - 1.0).abs() < 0.35, "fixed: right mean area {r}, {plain} without a map");
+}

@@ -21,7 +21,9 @@ use crate::graph::{NodeId, RunCx, StageError};
 use crate::lang::{Decl, Diagnostic, Props};
 use crate::raster::{self, Image};
 use crate::synth::rng::Rng;
-use crate::synth::structure::controls::{allowed_from_occupancy, Controls, DensityParams, OrientationMode, RemoveMode};
+use crate::synth::structure::controls::{
+    allowed_from_occupancy, Controls, DensityParams, OrientationMode, RemoveMode, SizeMode,
+};
 use crate::synth::structure::edits::{self, Edit, Target};
 use crate::synth::structure::faces::mesh_to_subdivision;
 use crate::synth::structure::labels_import::rasterize_polygons;
@@ -302,7 +304,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         "w": w, "h": h, "seed": seed,
         "mode": props.get("mode"), "scale": props.get("scale"), "centers": props.get("centers"),
         "shape_sampling": props.get("shape_sampling"), "perturb": props.get("perturb"), "swaps": props.get("swaps"),
-        "size_min": props.get("size_min"), "occupancy_remove": props.get("occupancy_remove"),
+        "size_mode": size_mode(props), "occupancy_remove": props.get("occupancy_remove"),
         "density": if props.enumeration("centers") == "density" {
             serde_json::json!([props.get("density_eps"), props.get("density_gamma")])
         } else {
@@ -311,7 +313,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     })
     .to_string();
     let opts = SampleOptions::from(props);
-    let s1 = FnStage::new("structure.sample", 1, s1_params, move |cx| sample_generators(cx, &opts, maps, w, h, seed));
+    let s1 = FnStage::new("structure.sample", 2, s1_params, move |cx| sample_generators(cx, &opts, maps, w, h, seed));
     let s1 = p.add(format!("structure {} (sampling)", d.name), s1, inputs, vec![]);
 
     // S2: Lloyd; with edits, S1e applies them to the relaxed generators and Lloyd runs
@@ -482,6 +484,15 @@ fn convert_edits(props: &Props) -> Result<Vec<Edit>, Diagnostic> {
     Ok(out)
 }
 
+/// How the size map sizes the ellipses (S1 and Lloyd).
+fn size_mode(props: &Props) -> SizeMode {
+    if props.enumeration("size_mode") == "fixed" {
+        SizeMode::Fixed { radius: props.num("size_fixed") }
+    } else {
+        SizeMode::Scale { k_min: props.num("size_min") }
+    }
+}
+
 /// What S1 needs from the declaration.
 #[derive(Clone)]
 struct SampleOptions {
@@ -491,7 +502,7 @@ struct SampleOptions {
     joint: bool,
     perturb: f64,
     swaps: f64,
-    size_min: f64,
+    size_mode: SizeMode,
     remove: RemoveMode,
     density: DensityParams,
 }
@@ -505,7 +516,7 @@ impl SampleOptions {
             joint: props.enumeration("shape_sampling") == "joint",
             perturb: props.num("perturb"),
             swaps: props.num("swaps"),
-            size_min: props.num("size_min"),
+            size_mode: size_mode(props),
             remove: if props.enumeration("occupancy_remove") == "any_overlap" {
                 RemoveMode::AnyOverlap
             } else {
@@ -536,7 +547,7 @@ fn sample_generators(
         density_params: o.density,
         occupancy: Some(plane.occupancy.plane(0)),
         size: maps.size.as_deref(),
-        k_min: o.size_min,
+        size_mode: o.size_mode,
         ..Controls::default()
     };
     let mut rng = Rng::new(seed);
@@ -625,12 +636,14 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
         OrientationMode::Region
     };
     let mut inputs = vec![gens, surface];
-    let maps = MapInputs::add(p, props, &mut inputs, &["density", "orientation", "metric_map"]);
+    let maps = MapInputs::add(p, props, &mut inputs, &["density", "orientation", "metric_map", "size"]);
+    let size_mode = size_mode(props);
     let key = serde_json::json!({
         "w": w, "h": h, "lloyd": params, "density": density, "orientation_mode": orientation_mode,
+        "size_mode": size_mode,
     })
     .to_string();
-    let stage = FnStage::new("structure.lloyd", 1, key, move |cx| {
+    let stage = FnStage::new("structure.lloyd", 2, key, move |cx| {
         let g = cx.input::<Generators>(0);
         let plane = cx.input::<Plane>(1);
         let m = prepare_maps(cx, maps, w, h)?;
@@ -641,7 +654,8 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
             orientation: m.orientation.as_ref(),
             orientation_mode,
             metric: m.metric.as_deref(),
-            ..Controls::default()
+            size: m.size.as_deref(),
+            size_mode,
         };
         let r = lloyd::lloyd(w, h, &g.set.ellipses, Some(&g.set.frozen), &controls, &params);
         Ok(Relaxed {

@@ -145,7 +145,19 @@ pub static SPEC: KindSpec = KindSpec {
         p("density_eps", Ty::Number(Unit::Plain, UNIT), Default::Text("0.01"), "Smallest density weight."),
         p("density_gamma", Ty::Number(Unit::Plain, POSITIVE), Default::Text("1"), "Exponent of the density weight."),
         p("size", Ty::Ref(&["map"]), Default::Absent, "Size map: darker means smaller regions."),
-        p("size_min", Ty::Number(Unit::Fraction, UNIT), Default::Text("0.3"), "Size factor at black in the size map."),
+        p(
+            "size_mode",
+            Ty::Enum(&["scale", "fixed"]),
+            Default::Text("scale"),
+            "`scale`: ellipses shrink with the size map down to `size_min` at black; `fixed`: inside its dark half (< 0.5) every ellipse gets the mean radius `size_fixed`, keeping its aspect ratio.",
+        ),
+        p("size_min", Ty::Number(Unit::Fraction, UNIT), Default::Text("0.3"), "`scale` mode: size factor at black in the size map."),
+        p(
+            "size_fixed",
+            Ty::Number(Unit::Length, POSITIVE),
+            Default::Text("6 px"),
+            "`fixed` mode: mean radius `√(ab)` of the ellipses in the marked area.",
+        ),
         p("orientation", Ty::Ref(&["map"]), Default::Absent, "Orientation field (2-channel map) turning the ellipses."),
         p(
             "orientation_mode",

@@ -10,8 +10,11 @@
 //!   ([`super::voronoi::Domain::allowed`]), (3) so they never enter a centroid, and (4)
 //!   polygonisation flags the mesh vertices on the border of the forbidden area
 //!   ([`super::polygonize::Polygonization::on_occupancy_border`]) so stage 2 can fix them.
-//! * **size** (`&[f32]`, luminance): `k(p) = k_min + (1 − k_min)·L(p)`, sampled at the ellipse
-//!   centre and multiplied into `(a, b)` ([`size_factor`]).
+//! * **size** (`&[f32]`, luminance), in one of two [`SizeMode`]s, read at the ellipse centre
+//!   and multiplied into `(a, b)` ([`size_factor`]): `scale`, `k = k_min + (1 − k_min)·L`
+//!   (the digest's proposal), or `fixed`, the thesis's other mode: inside the marked area
+//!   (`L < 0.5`) every ellipse gets one mean radius `√(ab)`, keeping its aspect ratio. The
+//!   expected number of regions per pixel follows ([`area_weight`]).
 //! * **orientation** (2-channel [`Image`] of unit vectors `(cos φ, sin φ)`): at every Lloyd
 //!   iteration `θ` becomes the axial mean of the field over the region (`Region`) or the
 //!   field at the centre (`Center`). Zero-length vectors impose nothing. Overrides `rotate`.
@@ -51,6 +54,23 @@ pub enum RemoveMode {
     AnyOverlap,
 }
 
+/// How the size map sizes the ellipses (§2.11).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SizeMode {
+    /// `k = k_min + (1 − k_min)·L` at the centre: darker is smaller, down to `k_min`.
+    Scale { k_min: f64 },
+    /// Inside the marked area (`L < 0.5` at the centre) every ellipse gets the mean radius
+    /// `√(ab) = radius` px with its aspect ratio and angle kept; elsewhere it is unchanged.
+    Fixed { radius: f64 },
+}
+
+impl Default for SizeMode {
+    fn default() -> Self {
+        SizeMode::Scale { k_min: 0.3 }
+    }
+}
+
 /// Where the orientation map is read.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -72,8 +92,7 @@ pub struct Controls<'a> {
     pub occupancy: Option<&'a [f32]>,
     /// Size map (luminance; dark = small).
     pub size: Option<&'a [f32]>,
-    /// `k_min` of the size map.
-    pub k_min: f64,
+    pub size_mode: SizeMode,
     /// Orientation field, 2 channels `(cos φ, sin φ)`.
     pub orientation: Option<&'a Image>,
     pub orientation_mode: OrientationMode,
@@ -88,7 +107,7 @@ impl Default for Controls<'_> {
             density_params: DensityParams::default(),
             occupancy: None,
             size: None,
-            k_min: 0.3,
+            size_mode: SizeMode::default(),
             orientation: None,
             orientation_mode: OrientationMode::Region,
             metric: None,
@@ -209,18 +228,36 @@ pub fn sample_bilinear(map: &[f32], width: usize, height: usize, p: Point) -> f6
     top * (1.0 - ty) + bot * ty
 }
 
-/// Size-map factor at `p`: `k = k_min + (1 − k_min)·L(p)` (`L` bilinear, clamped to [0, 1]).
-pub fn size_factor(size: &[f32], width: usize, height: usize, k_min: f64, p: Point) -> f64 {
+/// The factor the size map applies to the axes of `e` (read at its centre; `L` bilinear,
+/// clamped to [0, 1]).
+pub fn size_factor(size: &[f32], width: usize, height: usize, mode: SizeMode, e: &Ellipse) -> f64 {
+    let l = sample_bilinear(size, width, height, e.center).clamp(0.0, 1.0);
+    match mode {
+        SizeMode::Scale { k_min } => k_min + (1.0 - k_min) * l,
+        SizeMode::Fixed { radius } if l < 0.5 => radius / (e.a * e.b).sqrt(),
+        SizeMode::Fixed { .. } => 1.0,
+    }
+}
+
+/// How many regions pixel `p` holds relative to an unsized one, whose region has mean area
+/// `region_area` px: `1/k(p)²` in `scale` mode; in `fixed` mode `region_area / (π·radius²)`
+/// inside the marked area and 1 elsewhere. It weighs the region count `N'` and the placement
+/// of the initial generators.
+pub fn area_weight(size: &[f32], width: usize, height: usize, mode: SizeMode, p: Point, region_area: f64) -> f64 {
     let l = sample_bilinear(size, width, height, p).clamp(0.0, 1.0);
-    k_min + (1.0 - k_min) * l
+    match mode {
+        SizeMode::Scale { k_min } => 1.0 / (k_min + (1.0 - k_min) * l).powi(2),
+        SizeMode::Fixed { radius } if l < 0.5 => region_area / (std::f64::consts::PI * radius * radius),
+        SizeMode::Fixed { .. } => 1.0,
+    }
 }
 
 /// The ellipses with their axes multiplied by the size map at their centres.
-pub fn apply_size(ellipses: &[Ellipse], size: &[f32], width: usize, height: usize, k_min: f64) -> Vec<Ellipse> {
+pub fn apply_size(ellipses: &[Ellipse], size: &[f32], width: usize, height: usize, mode: SizeMode) -> Vec<Ellipse> {
     ellipses
         .iter()
         .map(|e| {
-            let k = size_factor(size, width, height, k_min, e.center);
+            let k = size_factor(size, width, height, mode, e);
             Ellipse { a: e.a * k, b: e.b * k, ..*e }
         })
         .collect()
@@ -350,8 +387,20 @@ mod tests {
     fn size_and_orientation_helpers() {
         let (w, h) = (10, 10);
         let size: Vec<f32> = (0..w * h).map(|i| if i % w < 5 { 0.0 } else { 1.0 }).collect();
-        assert!((size_factor(&size, w, h, 0.3, [1.0, 1.0]) - 0.3).abs() < 1e-12);
-        assert!((size_factor(&size, w, h, 0.3, [9.0, 1.0]) - 1.0).abs() < 1e-12);
+        let at = |x: f64| Ellipse { center: [x, 1.0], a: 8.0, b: 2.0, theta: 0.3 };
+        let scale = SizeMode::Scale { k_min: 0.3 };
+        assert!((size_factor(&size, w, h, scale, &at(1.0)) - 0.3).abs() < 1e-12);
+        assert!((size_factor(&size, w, h, scale, &at(9.0)) - 1.0).abs() < 1e-12);
+        assert!((area_weight(&size, w, h, scale, [1.0, 1.0], 50.0) - 1.0 / 0.09).abs() < 1e-9);
+        // Fixed: √(ab) = 4 inside the marked (dark) half, aspect and angle kept; unchanged outside.
+        let fixed = SizeMode::Fixed { radius: 2.0 };
+        let sized = apply_size(&[at(1.0), at(9.0)], &size, w, h, fixed);
+        assert!(((sized[0].a * sized[0].b).sqrt() - 2.0).abs() < 1e-12);
+        assert!((sized[0].a / sized[0].b - 4.0).abs() < 1e-12 && sized[0].theta == 0.3);
+        assert_eq!(sized[1], at(9.0));
+        let pi4 = std::f64::consts::PI * 4.0;
+        assert!((area_weight(&size, w, h, fixed, [1.0, 1.0], 50.0) - 50.0 / pi4).abs() < 1e-12);
+        assert_eq!(area_weight(&size, w, h, fixed, [9.0, 1.0], 50.0), 1.0);
         let f = Image::from_fn(w, h, 2, |_, _, c| if c == 0 { 0.0 } else { 1.0 });
         assert!((orientation_at(&f, [3.0, 3.0]).unwrap() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         let (c2, s2) = doubled_angle_field(&f, 5, 5);

@@ -229,7 +229,7 @@ pub fn lloyd(
     let effective = |gens: &[Ellipse], fx: f64, fy: f64| -> Vec<Ellipse> {
         gens.iter()
             .map(|e| {
-                let k = controls.size.map_or(1.0, |s| size_factor(s, width, height, controls.k_min, e.center));
+                let k = controls.size.map_or(1.0, |s| size_factor(s, width, height, controls.size_mode, e));
                 Ellipse { center: [e.center[0] * fx, e.center[1] * fy], a: e.a * k, b: e.b * k, theta: e.theta }
             })
             .collect()

@@ -6,9 +6,9 @@
 //!
 //! * `N' = round(A' / (s²·r̄))` with `A'` the allowed area (pixels not forbidden by the
 //!   occupancy map), `s` the linear scale and `r̄` the mean original region area. With a size
-//!   map, `A'` is the size-weighted area `Σ_allowed 1/k(p)²` (each region is `k²` times
-//!   smaller where the map is dark, so more of them are needed; without this, Lloyd would only
-//!   shuffle the same count of regions around).
+//!   map, `A'` is the size-weighted area `Σ_allowed area_weight(p)` (`1/k(p)²` in `scale`
+//!   mode: each region is `k²` times smaller where the map is dark, so more of them are
+//!   needed; without this, Lloyd would only shuffle the same count of regions around).
 //! * shapes `(a, b, θ)` come from a [`ShapeSampler`]: any closure
 //!   `FnMut(&mut Rng) -> (a, b, θ)` (e.g. the analysis histograms), [`Independent`] axes and
 //!   angle samplers (the thesis's default, §2.4), or the [`EmpiricalSampler`] over example
@@ -16,7 +16,7 @@
 //! * centres: [`CenterSource::Uniform`] over allowed pixels, [`CenterSource::Density`]
 //!   proportional to the density-map weight (uniform without a map; the default), or
 //!   [`CenterSource::Histogram`] (a sampler in sample coordinates whose bounding box is mapped
-//!   onto the target). With a size map, placement is also weighted by `1/k²`.
+//!   onto the target). With a size map, placement is also weighted by the area weight.
 //! * occupancy: centres are only placed in allowed pixels (`RemoveMode::Center`); with
 //!   `RemoveMode::AnyOverlap` an ellipse overlapping the forbidden area is re-placed up to
 //!   `max_retries` times and then dropped (counted in `dropped`).
@@ -27,7 +27,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::controls::{
-    allowed_from_occupancy, density_weight, ellipse_overlaps_forbidden, point_allowed, size_factor, Controls,
+    allowed_from_occupancy, area_weight, density_weight, ellipse_overlaps_forbidden, point_allowed, Controls,
     RemoveMode,
 };
 use super::metric::canonical;
@@ -162,8 +162,9 @@ pub fn mean_area(areas: &[f64]) -> f64 {
     areas.iter().sum::<f64>() / areas.len() as f64
 }
 
-/// The area `A'` used for `N'`: allowed pixels, each counted `1/k²` with a size map.
-pub fn effective_area(width: usize, height: usize, controls: &Controls) -> f64 {
+/// The area `A'` used for `N'`: allowed pixels, each counted by its [`area_weight`] with a
+/// size map (`region_area`: the mean region area `s²·r̄` without one).
+pub fn effective_area(width: usize, height: usize, controls: &Controls, region_area: f64) -> f64 {
     let allowed = controls.allowed();
     let mut total = 0.0;
     for y in 0..height {
@@ -174,8 +175,7 @@ pub fn effective_area(width: usize, height: usize, controls: &Controls) -> f64 {
             }
             total += match controls.size {
                 Some(s) => {
-                    let k = size_factor(s, width, height, controls.k_min, [x as f64 + 0.5, y as f64 + 0.5]);
-                    1.0 / (k * k)
+                    area_weight(s, width, height, controls.size_mode, [x as f64 + 0.5, y as f64 + 0.5], region_area)
                 }
                 None => 1.0,
             };
@@ -230,7 +230,8 @@ pub fn statistical(
 ) -> Synthesized {
     controls.check(width, height);
     let allowed = controls.allowed();
-    let area = effective_area(width, height, controls);
+    let region_area = params.scale * params.scale * params.mean_area;
+    let area = effective_area(width, height, controls, region_area);
     let target = region_count(area, params.scale, params.mean_area);
     let use_density = !matches!(centers, CenterSource::Uniform);
     let weights = (0..width * height).map(|i| {
@@ -245,8 +246,7 @@ pub fn statistical(
             }
         }
         if let Some(s) = controls.size {
-            let k = size_factor(s, width, height, controls.k_min, p);
-            w /= k * k;
+            w *= area_weight(s, width, height, controls.size_mode, p, region_area);
         }
         w
     });
@@ -346,6 +346,7 @@ pub fn drop_forbidden(
 
 #[cfg(test)]
 mod tests {
+    use super::super::controls::SizeMode;
     use super::super::lloyd::test_support::*;
     use super::super::lloyd::{lloyd, LloydParams, LloydResult};
     use super::super::metric::MetricKind;
@@ -660,7 +661,7 @@ mod tests {
         let rbar = 500.0;
         // Size map: left half black (k = k_min = 0.3), right half white (k = 1).
         let size: Vec<f32> = (0..w * h).map(|i| if (i % w) < w / 2 { 0.0 } else { 1.0 }).collect();
-        let controls = Controls { size: Some(&size), k_min: 0.3, ..Default::default() };
+        let controls = Controls { size: Some(&size), size_mode: SizeMode::Scale { k_min: 0.3 }, ..Default::default() };
         let mut sampler = EmpiricalSampler::new(&shapes, ShapeSampling::Joint);
         let s = statistical(
             w,
