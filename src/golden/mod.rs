@@ -11,3 +11,6 @@ pub use diff::diff_image;
 
 mod text;
 pub use text::{compare_text, TextComparison};
+
+mod mesh;
+pub use mesh::mesh_difference;

@@ -61,16 +61,19 @@ impl Project {
             if o.format.is_text() {
                 // Numbers in meshes and reports: rounded to 1e-6 when written.
                 let tol = o.tolerance.unwrap_or(TEXT_TOLERANCE);
-                let cmp = golden::compare_text(
-                    &String::from_utf8_lossy(&bytes.0),
-                    &String::from_utf8_lossy(&golden_bytes),
-                    tol,
-                );
+                let (actual, expected) = (String::from_utf8_lossy(&bytes.0), String::from_utf8_lossy(&golden_bytes));
+                let cmp = golden::compare_text(&actual, &expected, tol);
                 row.tolerance = tol;
                 row.max_abs = cmp.max_abs as f32;
                 row.failing_pixels = cmp.failing_numbers;
                 row.total_pixels = cmp.numbers;
                 row.note = cmp.mismatch;
+                if !cmp.pass {
+                    // A failed mesh also gets the geometry of the difference.
+                    if let Some(m) = golden::mesh_difference(&actual, &expected) {
+                        row.note = Some(row.note.map_or(m.clone(), |n| format!("{n}\n       {m}")));
+                    }
+                }
                 row.status = if cmp.pass { CheckStatus::Pass } else { CheckStatus::Fail };
                 rows.push(row);
                 continue;
