@@ -22,7 +22,7 @@ use crate::lang::{Decl, Diagnostic, Props};
 use crate::raster::{self, Image};
 use crate::synth::rng::Rng;
 use crate::synth::structure::controls::{
-    allowed_from_occupancy, Controls, DensityParams, OrientationMode, RemoveMode, SizeMode,
+    allowed_from_occupancy, apply_size, Controls, DensityParams, OrientationMode, RemoveMode, SizeMode,
 };
 use crate::synth::structure::edits::{self, Edit, Target};
 use crate::synth::structure::faces::mesh_to_subdivision;
@@ -55,7 +55,11 @@ pub struct Generators {
 /// The relaxed generators and their label raster (S2).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Relaxed {
+    /// The generators with the axes they were sampled with: edits and re-runs start here.
     pub generators: Vec<Ellipse>,
+    /// The generators as the final Voronoi step saw them (axes scaled by the size map; equal
+    /// to `generators` without one): the ellipse and distance views draw these.
+    pub sized: Vec<Ellipse>,
     pub frozen: Vec<bool>,
     pub labels: Labels,
     pub iterations: Vec<IterationStats>,
@@ -86,6 +90,7 @@ impl Encoded for Generators {
 #[derive(Serialize, Deserialize)]
 struct RelaxedMeta {
     generators: Vec<Ellipse>,
+    sized: Vec<Ellipse>,
     frozen: Vec<bool>,
     width: usize,
     height: usize,
@@ -99,6 +104,7 @@ impl Encoded for Relaxed {
     fn encode(&self) -> Vec<u8> {
         let meta = RelaxedMeta {
             generators: self.generators.clone(),
+            sized: self.sized.clone(),
             frozen: self.frozen.clone(),
             width: self.labels.width,
             height: self.labels.height,
@@ -127,6 +133,7 @@ impl Encoded for Relaxed {
         let data = raw.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
         Ok(Relaxed {
             generators: meta.generators,
+            sized: meta.sized,
             frozen: meta.frozen,
             labels: Labels { width: meta.width, height: meta.height, data },
             iterations: meta.iterations,
@@ -643,7 +650,7 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
         "size_mode": size_mode,
     })
     .to_string();
-    let stage = FnStage::new("structure.lloyd", 2, key, move |cx| {
+    let stage = FnStage::new("structure.lloyd", 3, key, move |cx| {
         let g = cx.input::<Generators>(0);
         let plane = cx.input::<Plane>(1);
         let m = prepare_maps(cx, maps, w, h)?;
@@ -658,8 +665,13 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
             size_mode,
         };
         let r = lloyd::lloyd(w, h, &g.set.ellipses, Some(&g.set.frozen), &controls, &params);
+        let sized = match controls.size {
+            Some(size) => apply_size(&r.generators, size, w, h, size_mode),
+            None => r.generators.clone(),
+        };
         Ok(Relaxed {
             generators: r.generators,
+            sized,
             frozen: r.frozen,
             labels: r.labels,
             iterations: r.iterations,
@@ -728,7 +740,7 @@ pub fn plan_output(
             let stage = FnStage::new("structure.view", 1, params, move |cx| {
                 let r = cx.input::<Relaxed>(0);
                 let img = match view_name.as_str() {
-                    "ellipses" => render::ellipses_overlay(&r.labels, &r.generators),
+                    "ellipses" => render::ellipses_overlay(&r.labels, &r.sized),
                     _ => distance_view(&r, metric),
                 };
                 encode_image(&img, format)
@@ -813,7 +825,7 @@ fn mesh_view(
 fn distance_view(r: &Relaxed, metric: MetricKind) -> Image {
     let (w, h) = (r.labels.width, r.labels.height);
     let domain = Domain { width: w, height: h, allowed: None, metric_map: None };
-    let d = voronoi::distance_field(&domain, &r.generators, &r.labels, metric);
+    let d = voronoi::distance_field(&domain, &r.sized, &r.labels, metric);
     let max = d.iter().copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max).max(1e-12);
     let mut img = Image::new(w, h, 1);
     for (o, v) in img.data.iter_mut().zip(d) {
