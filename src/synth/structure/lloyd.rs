@@ -23,7 +23,8 @@
 //! Convergence: stop after the first iteration whose mean displacement of the non-frozen
 //! generators (full-resolution pixels) is below `tol`, or after `max_iters` iterations.
 //!
-//! Determinism: the flood is sequential; centroid, covariance, orientation and energy sums are
+//! Determinism: the flood is exact whatever the thread count (its parallel parts write disjoint
+//! pixels; see [`super::voronoi`]); centroid, covariance, orientation and energy sums are
 //! integers (pixel coordinates doubled, weights quantised to `0..=65535`) added in any order,
 //! and the energy is then evaluated per region in id order, so results are bit-identical for
 //! any rayon thread count.
