@@ -35,13 +35,13 @@
 //! exactly as it would have. The labels stay bit-identical to the plain flood (tested against
 //! textbook flooding, with masks, metric maps and exact ties).
 //!
-//! Cost (1024², 300 generators, 2 cores): about 45 ms per flood (argmin ~20 ms, the advance
-//! labelling ~15 ms, the queue ~8 ms over ~6 % of the pixels); the plain flood took ~100 ms
-//! (~100 ns per pixel, a quarter of it sorting buckets, the rest a pop / push loop jumping
-//! between all region fronts). Measured on the plain flood and not kept: 512–1024 buckets
-//! per scale and 16384, `_mm_prefetch` 0–16 pops ahead, sorting by the key alone plus a tie
-//! pass, LSD radix sort, counting-sort sub-buckets (none beat `sort_unstable` on `u128` by
-//! more than ~10 %).
+//! Cost (1024², 300 generators, 2 cores): about 40 ms per flood, most of it the argmin and
+//! the advance labelling, the queue running over a few per cent of the pixels; the plain
+//! flood took ~110 ms (~100 ns per pixel, a quarter of it sorting buckets, the rest a pop /
+//! push loop jumping between all region fronts). Measured on the plain flood and not kept:
+//! 512–1024 buckets per scale and 16384, `_mm_prefetch` 0–16 pops ahead, sorting by the key
+//! alone plus a tie pass, LSD radix sort, counting-sort sub-buckets (none beat
+//! `sort_unstable` on `u128` by more than ~10 %).
 
 use std::collections::BinaryHeap;
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
