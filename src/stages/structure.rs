@@ -22,7 +22,7 @@ use crate::lang::{Decl, Diagnostic, Props};
 use crate::raster::{self, Image};
 use crate::synth::rng::Rng;
 use crate::synth::structure::controls::{
-    allowed_from_occupancy, apply_size, Controls, DensityParams, OrientationMode, RemoveMode, SizeMode,
+    allowed_from_occupancy, Controls, DensityParams, OrientationMode, RemoveMode, SizeMode,
 };
 use crate::synth::structure::edits::{self, Edit, Target};
 use crate::synth::structure::faces::mesh_to_subdivision;
@@ -665,13 +665,9 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
             size_mode,
         };
         let r = lloyd::lloyd(w, h, &g.set.ellipses, Some(&g.set.frozen), &controls, &params);
-        let sized = match controls.size {
-            Some(size) => apply_size(&r.generators, size, w, h, size_mode),
-            None => r.generators.clone(),
-        };
         Ok(Relaxed {
             generators: r.generators,
-            sized,
+            sized: r.sized,
             frozen: r.frozen,
             labels: r.labels,
             iterations: r.iterations,

@@ -252,17 +252,6 @@ pub fn area_weight(size: &[f32], width: usize, height: usize, mode: SizeMode, p:
     }
 }
 
-/// The ellipses with their axes multiplied by the size map at their centres.
-pub fn apply_size(ellipses: &[Ellipse], size: &[f32], width: usize, height: usize, mode: SizeMode) -> Vec<Ellipse> {
-    ellipses
-        .iter()
-        .map(|e| {
-            let k = size_factor(size, width, height, mode, e);
-            Ellipse { a: e.a * k, b: e.b * k, ..*e }
-        })
-        .collect()
-}
-
 /// Axial angle in `[0, π)` of a direction vector, `None` for a (near) zero vector.
 pub fn vector_angle(c: f64, s: f64) -> Option<f64> {
     if c * c + s * s < 1e-12 {
@@ -392,12 +381,11 @@ mod tests {
         assert!((size_factor(&size, w, h, scale, &at(1.0)) - 0.3).abs() < 1e-12);
         assert!((size_factor(&size, w, h, scale, &at(9.0)) - 1.0).abs() < 1e-12);
         assert!((area_weight(&size, w, h, scale, [1.0, 1.0], 50.0) - 1.0 / 0.09).abs() < 1e-9);
-        // Fixed: √(ab) = 4 inside the marked (dark) half, aspect and angle kept; unchanged outside.
+        // Fixed: √(ab) = 2 inside the marked (dark) half; unchanged outside.
         let fixed = SizeMode::Fixed { radius: 2.0 };
-        let sized = apply_size(&[at(1.0), at(9.0)], &size, w, h, fixed);
-        assert!(((sized[0].a * sized[0].b).sqrt() - 2.0).abs() < 1e-12);
-        assert!((sized[0].a / sized[0].b - 4.0).abs() < 1e-12 && sized[0].theta == 0.3);
-        assert_eq!(sized[1], at(9.0));
+        let k = size_factor(&size, w, h, fixed, &at(1.0));
+        assert!((k * (at(1.0).a * at(1.0).b).sqrt() - 2.0).abs() < 1e-12);
+        assert_eq!(size_factor(&size, w, h, fixed, &at(9.0)), 1.0);
         let pi4 = std::f64::consts::PI * 4.0;
         assert!((area_weight(&size, w, h, fixed, [1.0, 1.0], 50.0) - 50.0 / pi4).abs() < 1e-12);
         assert_eq!(area_weight(&size, w, h, fixed, [9.0, 1.0], 50.0), 1.0);

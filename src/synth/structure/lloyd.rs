@@ -89,6 +89,8 @@ pub struct IterationStats {
 pub struct LloydResult {
     /// The relaxed generators (unscaled axes; see the size map note).
     pub generators: Vec<Ellipse>,
+    /// The generators as the final Voronoi step saw them (axes scaled by the size map).
+    pub sized: Vec<Ellipse>,
     pub frozen: Vec<bool>,
     /// Input index of each output generator.
     pub source: Vec<usize>,
@@ -312,7 +314,7 @@ pub fn lloyd(
     }
 
     // Final labels at full resolution.
-    let eff = effective(&gens, 1.0, 1.0);
+    let mut eff = effective(&gens, 1.0, 1.0);
     let domain = Domain::new(width, height).with_allowed(full_allowed.as_deref()).with_metric_map(controls.metric);
     let orphans = ws.run_ellipses(&domain, &eff, &vparams);
     let mut labels = ws.labels(&domain);
@@ -337,10 +339,11 @@ pub fn lloyd(
             }
         }
         gens = kept.iter().map(|&g| gens[g]).collect();
+        eff = kept.iter().map(|&g| eff[g]).collect();
         out_frozen = kept.iter().map(|&g| out_frozen[g]).collect();
         source = kept;
     }
-    LloydResult { generators: gens, frozen: out_frozen, source, labels, orphans, iterations, converged }
+    LloydResult { generators: gens, sized: eff, frozen: out_frozen, source, labels, orphans, iterations, converged }
 }
 
 /// Region sums and the energy of the current partition.

@@ -281,9 +281,8 @@ impl VoronoiWorkspace {
             // Each front pops its expansion at the key its own entry would have had.
             for &p in &fronts {
                 let p = p as usize;
-                let (k, g) = (self.argmin_d[p], self.label[p]);
-                let pix = (((p / w) as u128) << 16) | (p % w) as u128;
-                self.queue.push(((k.to_bits() as u128) << 64) | ((g as u128) << 32) | pix, k);
+                let k = self.argmin_d[p];
+                self.queue.push(entry(k, self.label[p], p % w, p / w), k);
             }
         }
         // 2. Push the neighbours of every seed (and the extra seeds), then 3. pop until empty.
@@ -543,6 +542,12 @@ fn prefetch(v: &[u32], i: usize) {
     }
 }
 
+/// A queue entry, ordered by `(key, generator, pixel index)`: `key bits << 64 | g << 32 | y << 16 | x`.
+#[inline(always)]
+fn entry(key: f64, g: u32, x: usize, y: usize) -> u128 {
+    ((key.to_bits() as u128) << 64) | ((g as u128) << 32) | ((y as u128) << 16) | x as u128
+}
+
 impl FloodCtx<'_> {
     #[inline(always)]
     fn try_push<D: Fn(usize, usize, f64, f64) -> f64>(&mut self, x: usize, y: usize, g: u32, dist: &D) {
@@ -564,8 +569,7 @@ impl FloodCtx<'_> {
             }
         }
         self.tag[q] = PENDING_FLAG | g;
-        let pix = ((y as u128) << 16) | x as u128;
-        self.queue.push(((k.to_bits() as u128) << 64) | ((g as u128) << 32) | pix, k);
+        self.queue.push(entry(k, g, x, y), k);
     }
 
     #[inline(always)]
