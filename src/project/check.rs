@@ -71,7 +71,10 @@ impl Project {
                 if !cmp.pass {
                     // A failed mesh also gets the geometry of the difference.
                     if let Some(m) = golden::mesh_difference(&actual, &expected) {
-                        row.note = Some(row.note.map_or(m.clone(), |n| format!("{n}\n       {m}")));
+                        row.note = Some(match row.note.take() {
+                            Some(n) => format!("{n}\n       {m}"),
+                            None => m,
+                        });
                     }
                 }
                 row.status = if cmp.pass { CheckStatus::Pass } else { CheckStatus::Fail };

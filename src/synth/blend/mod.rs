@@ -29,8 +29,9 @@
 //! (no wrap, Neumann at the image border).
 //!
 //! Solvers: `Whole` on `Torus` is solved exactly by a real FFT (periodic), on `Open` by the
-//! DCT (Neumann; both in `spectral`, on `synth::fft`); everything else by multigrid-preconditioned conjugate
-//! gradients (default) or plain multigrid V-cycles on the free pixels (see `multigrid`).
+//! DCT (Neumann; both in `spectral`, on `synth::fft`); everything else by multigrid-
+//! preconditioned conjugate gradients (default) or plain multigrid V-cycles on the free
+//! pixels (see `multigrid`).
 //! The masked solvers work on the correction `u = f − f₀` from the composite `f₀`, which is
 //! smooth, and stop at `‖b − L f‖₂ ≤ tol·‖b‖₂` (digest §5 "converged"); each channel's
 //! [`SolveReport`] gives the iterations and the *true* final residual of the returned f32

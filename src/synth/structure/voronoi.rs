@@ -197,24 +197,20 @@ impl VoronoiWorkspace {
         let frames: Vec<EllipseFrame> = ellipses.iter().map(EllipseFrame::new).collect();
         let seeds: Vec<usize> = ellipses.iter().map(|e| seed_pixel(domain, e.center)).collect();
         let scale = key_scale_ellipses(domain, ellipses);
-        if params.mode == VoronoiMode::Growth {
-            let prepared: Vec<Prepared> = frames.iter().map(|f| Prepared::Ellipse(*f)).collect();
-            argmin_labels(domain, &prepared, params.metric, &mut self.argmin_l, &mut self.argmin_d);
-        }
+        let prepared: Vec<Prepared> = frames.iter().map(|f| Prepared::Ellipse(*f)).collect();
+        // Ellipse floods decide most pixels in advance from the argmin diagram.
+        let advance = Some((&prepared[..], params.metric));
         match (params.mode, domain.metric_map) {
             (VoronoiMode::Growth, None) => {
                 let kind = params.metric;
                 let d = |g: usize, _i: usize, x: f64, y: f64| frames[g].distance(kind, x, y);
-                self.flood(domain, &seeds, &[], scale, true, d)
+                self.flood(domain, &seeds, &[], scale, advance, d)
             }
             (VoronoiMode::Growth, Some(map)) => {
                 let d = |g: usize, i: usize, x: f64, y: f64| frames[g].distance(map[i], x, y);
-                self.flood(domain, &seeds, &[], scale, true, d)
+                self.flood(domain, &seeds, &[], scale, advance, d)
             }
-            (VoronoiMode::Argmin, _) => {
-                let prepared: Vec<Prepared> = frames.iter().map(|f| Prepared::Ellipse(*f)).collect();
-                self.argmin(domain, &prepared, params.metric)
-            }
+            (VoronoiMode::Argmin, _) => self.argmin(domain, &prepared, params.metric),
         }
     }
 
@@ -233,7 +229,7 @@ impl VoronoiWorkspace {
                     let k = map.map_or(kind, |m| m[i]);
                     prepared[g].distance(k, x, y)
                 };
-                self.flood(domain, &seeds, &extra, scale, false, d)
+                self.flood(domain, &seeds, &extra, scale, None, d)
             }
             VoronoiMode::Argmin => self.argmin(domain, &prepared, params.metric),
         }
@@ -243,14 +239,15 @@ impl VoronoiWorkspace {
     ///
     /// `extra` holds further `(pixel, generator)` seeds (the pixels a segment passes through):
     /// they are queued with their keys after the seed pixels are labelled, so crossing segments
-    /// are resolved by distance.
+    /// are resolved by distance. `advance`: the sites (measured as `dist` measures them) and
+    /// default metric whose argmin diagram decides pixels in advance ([`certify_regions`]).
     fn flood<D>(
         &mut self,
         domain: &Domain,
         seeds: &[usize],
         extra: &[(usize, usize)],
         key_scale: f64,
-        certify: bool,
+        advance: Option<(&[Prepared], MetricKind)>,
         dist: D,
     ) -> Vec<usize>
     where
@@ -276,7 +273,8 @@ impl VoronoiWorkspace {
                 orphans.push(g);
             }
         }
-        if certify {
+        if let Some((sites, kind)) = advance {
+            argmin_labels(domain, sites, kind, &mut self.argmin_l, &mut self.argmin_d);
             let fronts = certify_regions(&mut self.label, &self.argmin_l, &self.argmin_d, seeds, &seeded, w);
             // Each front pops its expansion at the key its own entry would have had.
             for &p in &fronts {
@@ -504,10 +502,10 @@ fn certify_regions(
         (y0..sy).rev().for_each(row);
     });
     // The fronts: labelled neighbours of the pixels left open.
-    let mut fronts: Vec<u32> = label
+    let mut fronts: Vec<u32> = shared
         .par_iter()
         .enumerate()
-        .filter(|&(_, &l)| l == NO_REGION)
+        .filter(|(_, l)| l.load(Relaxed) == NO_REGION)
         .flat_map_iter(|(p, _)| {
             let (x, y) = (p % w, p / w);
             NEIGHBOURS_8.iter().filter_map(move |&(dx, dy)| {
