@@ -467,8 +467,8 @@ fn fmt(cwd: &Path, paths: &[PathBuf], check: bool) -> CmdResult {
                 let _ = formatted;
             }
             Ok(formatted) => {
-                if let Err(e) = tessera::graph::write_atomic(&file, formatted.as_bytes()) {
-                    eprintln!("error: cannot write {}: {e}", file.display());
+                if let Err(e) = project::format::rewrite_scene(&file, &formatted) {
+                    eprintln!("error: {e}");
                     bad = true;
                 } else {
                     println!("formatted {}", file.display());

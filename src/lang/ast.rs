@@ -113,6 +113,16 @@ pub struct Arg {
 }
 
 impl ValueKind {
+    /// Like `describe`, with a vector's shape, so that a wrong vector is not reported as
+    /// "expected a vector, found a vector": `[[1, 2]]` is "a vector of 1 vector of 2 numbers".
+    pub fn describe_shape(&self) -> String {
+        match self {
+            ValueKind::Vector(items) if items.is_empty() => "an empty vector".into(),
+            ValueKind::Vector(items) => format!("a vector of {}", vector_contents(items)),
+            k => k.describe().into(),
+        }
+    }
+
     /// A short noun for diagnostics: "expected a size, found a string".
     pub fn describe(&self) -> &'static str {
         match self {
@@ -127,4 +137,25 @@ impl ValueKind {
             ValueKind::Block(_) => "a block",
         }
     }
+}
+
+/// "2 numbers", "1 vector of 2 numbers", "3 values": what a non-empty vector holds. Only the
+/// first element's chain is followed, so the cost is the nesting depth, not the size.
+fn vector_contents(items: &[Value]) -> String {
+    let n = items.len();
+    let s = if n == 1 { "" } else { "s" };
+    if items.iter().all(|i| matches!(i.kind, ValueKind::Number { .. })) {
+        return format!("{n} number{s}");
+    }
+    if let ValueKind::Vector(first) = &items[0].kind {
+        let m = first.len();
+        if items.iter().all(|i| matches!(&i.kind, ValueKind::Vector(v) if v.len() == m)) {
+            return if m == 0 {
+                format!("{n} empty vector{s}")
+            } else {
+                format!("{n} vector{s} of {}", vector_contents(first))
+            };
+        }
+    }
+    format!("{n} value{s}")
 }

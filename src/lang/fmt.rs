@@ -11,6 +11,10 @@ use super::Diagnostic;
 pub fn format_source(text: &str) -> Result<String, Diagnostic> {
     let file = parse_file(text, FileId(0))?;
     let mut f = Formatter { text, out: String::new() };
+    // A byte order mark is kept: formatting changes layout, not the file's encoding marks.
+    if text.starts_with('\u{feff}') {
+        f.out.push('\u{feff}');
+    }
     f.items(&file.items);
     Ok(f.out)
 }

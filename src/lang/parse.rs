@@ -11,12 +11,18 @@ use super::source::{FileId, Span};
 #[grammar = "../grammar/tessera.pest"]
 struct SceneParser;
 
+/// How deeply `{`, `[` and `(` may nest. Scenes written by hand nest a handful of levels;
+/// the limit is checked before anything recursive runs (pest, the AST builder, the resolver,
+/// the formatter, even dropping the tree), so no input can exhaust the stack.
+pub const MAX_NESTING: usize = 64;
+
 /// Parses a whole scene file.
 pub fn parse_file(text: &str, file: FileId) -> Result<File, Diagnostic> {
+    let brackets = scan_brackets(text, file)?;
     // Track expected literal tokens (`)`, `,`, `=`) too, not only rules, so that a
     // syntax error can say "expected `,` or `)`".
     pest::set_error_detail(true);
-    let mut pairs = SceneParser::parse(Rule::file, text).map_err(|e| syntax_error(e, file))?;
+    let mut pairs = SceneParser::parse(Rule::file, text).map_err(|e| syntax_error(e, text, file, brackets))?;
     let root = pairs.next().expect("pest yields the file rule");
     let b = Builder { file };
     let items = root.into_inner().filter(|p| p.as_rule() != Rule::EOI).map(|p| b.item(p)).collect();
@@ -25,8 +31,9 @@ pub fn parse_file(text: &str, file: FileId) -> Result<File, Diagnostic> {
 
 /// Parses a lone value, as given on the command line by `--set name=value`.
 pub fn parse_value(text: &str, file: FileId) -> Result<Value, Diagnostic> {
+    let brackets = scan_brackets(text, file)?;
     // A value rule anchored at both ends: wrap in a tiny file so the grammar stays single-rooted.
-    let mut pairs = SceneParser::parse(Rule::value, text).map_err(|e| syntax_error(e, file))?;
+    let mut pairs = SceneParser::parse(Rule::value, text).map_err(|e| syntax_error(e, text, file, brackets))?;
     let pair = pairs.next().expect("pest yields the value rule");
     let consumed = pair.as_span().end();
     if text[consumed..].trim().is_empty() {
@@ -37,12 +44,130 @@ pub fn parse_value(text: &str, file: FileId) -> Result<Value, Diagnostic> {
     }
 }
 
-fn syntax_error(e: pest::error::Error<Rule>, file: FileId) -> Diagnostic {
+/// The first bracket that does not pair up, found by a scan that skips strings and comments.
+/// It is reported only when pest fails too, and only if pest's failure comes at or after
+/// `origin`: an unbalanced bracket makes pest fail somewhere after it, at a place that
+/// says nothing about the bracket ("expected `{` or `=`" on the next declaration).
+struct BracketError {
+    origin: usize,
+    diagnostic: Diagnostic,
+}
+
+fn closer_of(open: u8) -> u8 {
+    match open {
+        b'{' => b'}',
+        b'[' => b']',
+        _ => b')',
+    }
+}
+
+/// Checks the nesting depth (an error at once: it guards everything recursive) and finds
+/// the first unbalanced bracket (kept for the syntax error, if pest fails).
+fn scan_brackets(text: &str, file: FileId) -> Result<Option<BracketError>, Diagnostic> {
+    let b = text.as_bytes();
+    let at = |i: usize| Span::new(file, i, i + 1);
+    let mut open: Vec<(u8, usize)> = Vec::new();
+    let mut first: Option<BracketError> = None;
+    let mut i = 0;
+    while i < b.len() {
+        match b[i] {
+            // A string runs to its closing quote or, unterminated, to the end of the line.
+            b'"' => {
+                i += 1;
+                while i < b.len() && b[i] != b'"' && b[i] != b'\n' {
+                    if b[i] == b'\\' && i + 1 < b.len() && b[i + 1] != b'\n' {
+                        i += 1;
+                    }
+                    i += 1;
+                }
+            }
+            b'#' => {
+                while i < b.len() && b[i] != b'\n' {
+                    i += 1;
+                }
+            }
+            b'/' if b.get(i + 1) == Some(&b'/') => {
+                while i < b.len() && b[i] != b'\n' {
+                    i += 1;
+                }
+            }
+            c @ (b'{' | b'[' | b'(') => {
+                if open.len() >= MAX_NESTING {
+                    return Err(Diagnostic::error(format!(
+                        "nesting too deep: more than {MAX_NESTING} levels of brackets"
+                    ))
+                    .with_code("tessera::nesting")
+                    .with_label(at(i), format!("this `{}` opens level {}", c as char, open.len() + 1))
+                    .with_help(format!(
+                        "blocks, vectors and calls may nest at most {MAX_NESTING} deep; \
+                         move inner parts into declarations or params of their own"
+                    )));
+                }
+                open.push((c, i));
+            }
+            c @ (b'}' | b']' | b')') => match open.pop() {
+                Some((o, _)) if closer_of(o) == c => {}
+                Some((o, oi)) if first.is_none() => {
+                    first = Some(BracketError {
+                        origin: oi,
+                        diagnostic: Diagnostic::error(format!(
+                            "mismatched `{}`: the `{}` opened before it is not closed",
+                            c as char, o as char
+                        ))
+                        .with_code("tessera::syntax")
+                        .with_label(at(i), format!("expected `{}` before this", closer_of(o) as char))
+                        .with_label(at(oi), format!("this `{}` is not closed", o as char)),
+                    });
+                }
+                None if first.is_none() => {
+                    first = Some(BracketError {
+                        origin: i,
+                        diagnostic: Diagnostic::error(format!("unexpected `{}`: nothing is open here", c as char))
+                            .with_code("tessera::syntax")
+                            .with_label(at(i), "this closes nothing")
+                            .with_help("remove it, or add the opening bracket it was meant to close"),
+                    });
+                }
+                _ => {}
+            },
+            _ => {}
+        }
+        i += 1;
+    }
+    if first.is_none() {
+        if let Some(&(o, oi)) = open.first() {
+            // The outermost unclosed bracket: an inner one left open is usually closed, wrongly,
+            // by the `}` meant for its parent, which leaves the parent open.
+            let mut d = Diagnostic::error(format!("unclosed `{}`", o as char))
+                .with_code("tessera::syntax")
+                .with_label(at(oi), format!("this `{}` is never closed", o as char))
+                .with_help(format!(
+                    "add the missing `{}`; a closing bracket further down may be closing another one",
+                    closer_of(o) as char
+                ));
+            for &(o2, oi2) in open.iter().skip(1) {
+                d = d.with_label(at(oi2), format!("nor is this `{}`", o2 as char));
+            }
+            first = Some(BracketError { origin: oi, diagnostic: d });
+        }
+    }
+    Ok(first)
+}
+
+fn syntax_error(e: pest::error::Error<Rule>, text: &str, file: FileId, brackets: Option<BracketError>) -> Diagnostic {
     use pest::error::{ErrorVariant, InputLocation};
     let (start, end) = match e.location {
         InputLocation::Pos(p) => (p, p),
         InputLocation::Span((a, b)) => (a, b),
     };
+    if let Some(b) = brackets {
+        if start >= b.origin {
+            return b.diagnostic;
+        }
+    }
+    if let Some(d) = non_ascii_name(text, start, file) {
+        return d;
+    }
     let tokens: Vec<String> = e
         .parse_attempts()
         .map(|a| {
@@ -62,19 +187,59 @@ fn syntax_error(e: pest::error::Error<Rule>, file: FileId) -> Diagnostic {
                 positives.iter().copied().filter(|r| !matches!(r, Rule::unit | Rule::comment)).collect();
             let mut parts: Vec<String> = Vec::new();
             let candidates: Vec<String> =
-                rules.iter().map(|r| describe_rule(r).to_string()).chain(tokens.iter().cloned()).collect();
+                rules.iter().filter_map(describe_rule).map(str::to_string).chain(tokens.iter().cloned()).collect();
             for p in candidates {
                 if !parts.contains(&p) {
                     parts.push(p);
                 }
             }
-            join_alternatives(&parts)
+            parts
         }
-        ErrorVariant::CustomError { message } => message.clone(),
+        // pest's own guards ("stack limit reached", "call limit reached"): the depth check
+        // above keeps scenes from reaching them, but a caller on a small stack might.
+        ErrorVariant::CustomError { .. } => {
+            return Diagnostic::error("the scene is nested too deeply to parse")
+                .with_code("tessera::nesting")
+                .with_label(Span::new(file, start, end), "the parser gave up here")
+                .with_help("flatten the nested values, or move parts into declarations of their own");
+        }
     };
-    Diagnostic::error(format!("syntax error: expected {expected}"))
-        .with_code("tessera::syntax")
-        .with_label(Span::new(file, start, end), "here")
+    let found = found_at(text, start);
+    let message = if expected.is_empty() {
+        format!("syntax error: unexpected {found}")
+    } else {
+        format!("syntax error: expected {}", join_alternatives(&expected))
+    };
+    let label = if expected.is_empty() { "not valid here".to_string() } else { "here".to_string() };
+    Diagnostic::error(message).with_code("tessera::syntax").with_label(Span::new(file, start, end), label)
+}
+
+/// What the text holds at `pos`, for "unexpected …".
+fn found_at(text: &str, pos: usize) -> String {
+    match text.get(pos..).and_then(|t| t.chars().next()) {
+        None => "end of file".into(),
+        Some(c) if c.is_control() || c.is_whitespace() || c == '\u{feff}' => format!("character {}", c.escape_unicode()),
+        Some(c) => format!("`{c}`"),
+    }
+}
+
+/// A syntax error at a non-ASCII letter is a name written with non-ASCII characters (the
+/// grammar's names are ASCII); say so, at the whole word.
+fn non_ascii_name(text: &str, pos: usize, file: FileId) -> Option<Diagnostic> {
+    let c = text.get(pos..)?.chars().next()?;
+    if c.is_ascii() || !c.is_alphanumeric() {
+        return None;
+    }
+    let word = |ch: char| ch.is_alphanumeric() || ch == '_' || ch == '-';
+    let start = text[..pos].char_indices().rev().take_while(|&(_, ch)| word(ch)).last().map_or(pos, |(i, _)| i);
+    let end = text[pos..].char_indices().find(|&(_, ch)| !word(ch)).map_or(text.len(), |(i, _)| pos + i);
+    let name = &text[start..end];
+    Some(
+        Diagnostic::error(format!("names are ASCII: `{name}` contains `{c}`"))
+            .with_code("tessera::syntax")
+            .with_label(Span::new(file, start, end), "not an ASCII name")
+            .with_help("names are made of ASCII letters, digits, `_` and `-`; other text belongs in strings or comments"),
+    )
 }
 
 fn join_alternatives(parts: &[String]) -> String {
@@ -85,8 +250,9 @@ fn join_alternatives(parts: &[String]) -> String {
     }
 }
 
-fn describe_rule(rule: &Rule) -> &'static str {
-    match rule {
+/// A rule as the user would name it; `None` for rules that say nothing useful.
+fn describe_rule(rule: &Rule) -> Option<&'static str> {
+    Some(match rule {
         Rule::EOI => "end of file",
         Rule::item | Rule::decl | Rule::kind => "a declaration",
         Rule::import => "`import`",
@@ -103,8 +269,8 @@ fn describe_rule(rule: &Rule) -> &'static str {
         Rule::call => "a call",
         Rule::unit => "a unit",
         Rule::boolean => "`true` or `false`",
-        _ => "something else",
-    }
+        _ => return None,
+    })
 }
 
 struct Builder {

@@ -15,6 +15,52 @@ use super::source::{FileId, SourceMap, Span};
 /// per channel, and a typo should not be able to exhaust the machine's memory.
 const MAX_SIDE: f64 = 16384.0;
 
+/// The largest integer a property may hold: 2^53, up to which every integer is exactly an
+/// f64 (integers also serve as numbers, and params pass through the same values).
+const MAX_EXACT_INT: i64 = 1 << 53;
+
+/// The exact value of an integer literal (`12`, `-3`, `1.5e3`, `20.0`) from its digits:
+/// `None` if the text is not a whole number, `Some(None)` if it is one too large for i128.
+fn integer_literal(text: &str) -> Option<Option<i128>> {
+    let (negative, t) = match text.strip_prefix('-') {
+        Some(rest) => (true, rest),
+        None => (false, text),
+    };
+    let (mantissa, exponent) = match t.find(['e', 'E']) {
+        Some(i) => (&t[..i], &t[i + 1..]),
+        None => (t, "0"),
+    };
+    let (int, frac) = mantissa.split_once('.').unwrap_or((mantissa, ""));
+    // An exponent too long for i64 makes the value certainly too large (or below 1).
+    let exponent: i64 =
+        exponent.parse().unwrap_or(if exponent.starts_with('-') { i64::MIN / 2 } else { i64::MAX / 2 });
+    let digits: String = format!("{int}{frac}");
+    let digits = digits.trim_start_matches('0');
+    if digits.is_empty() {
+        return Some(Some(0));
+    }
+    // value = digits × 10^scale
+    let scale = exponent - frac.len() as i64;
+    let (whole, rest) = if scale >= 0 {
+        (digits.to_string(), "")
+    } else {
+        let cut = digits.len() as i64 + scale;
+        if cut <= 0 {
+            return None; // 0 < value < 1
+        }
+        (digits[..cut as usize].to_string(), &digits[cut as usize..])
+    };
+    if rest.bytes().any(|b| b != b'0') {
+        return None;
+    }
+    if whole.len() as i64 + scale.max(0) > 38 {
+        return Some(None);
+    }
+    let n: i128 = whole.parse().ok()?;
+    let n = n * 10i128.pow(scale.max(0) as u32);
+    Some(Some(if negative { -n } else { n }))
+}
+
 /// Where scene text comes from. The compiler reads every file through one such door so
 /// that the caller can hash and record what was read (watch mode follows those files).
 pub trait Loader {
@@ -241,6 +287,15 @@ impl<'a> Checker<'a> {
                 return;
             }
             (Naming::Ident, Some(n)) if !n.quoted => (n.text.clone(), n.span),
+            (Naming::Path, Some(n)) if n.quoted && n.text.trim().is_empty() => {
+                self.errors.push(
+                    Diagnostic::error(format!("`{}` needs a file name", spec.name))
+                        .with_code("tessera::naming")
+                        .with_label(n.span, "empty file name")
+                        .with_help(format!("write `{} \"result.png\" {{ ... }}`", spec.name)),
+                );
+                return;
+            }
             (Naming::Path, Some(n)) if n.quoted => (n.text.clone(), n.span),
             (Naming::Ident, _) => {
                 self.errors.push(
@@ -406,7 +461,7 @@ impl<'a> Checker<'a> {
 
     fn mismatch(&mut self, v: &ast::Value, ty: &Ty) -> Option<Val> {
         self.errors.push(
-            Diagnostic::error(format!("expected {}, found {}", ty.describe(), v.kind.describe()))
+            Diagnostic::error(format!("expected {}, found {}", ty.describe(), v.kind.describe_shape()))
                 .with_code("tessera::type")
                 .with_label(v.span, format!("expected {}", ty.describe())),
         );
@@ -434,20 +489,49 @@ impl<'a> Checker<'a> {
             }
         }
         match (ty, &v.kind) {
-            (Ty::Number(unit, range), ValueKind::Number { value, unit: u, .. }) => {
-                let x = self.convert_unit(*value, u.as_deref(), *unit, v.span)?;
-                self.in_range(x, *range, *unit, v.span)
-            }
-            (Ty::Int(lo, hi), ValueKind::Number { value, unit: None, .. }) => {
-                if value.fract() != 0.0 || *value < *lo as f64 || *value > *hi as f64 {
+            (Ty::Number(unit, range), ValueKind::Number { value, unit: u, text }) => {
+                if !value.is_finite() {
                     self.errors.push(
-                        Diagnostic::error(format!("expected an integer from {lo} to {hi}, found {value}"))
+                        Diagnostic::error(format!("`{text}` is too large: numbers lie within about ±{:.1e}", f64::MAX))
                             .with_code("tessera::range")
-                            .with_label(v.span, "out of range"),
+                            .with_label(v.span, "beyond the range of numbers"),
                     );
                     return None;
                 }
-                Some(Val::Int(*value as i64))
+                let x = self.convert_unit(*value, u.as_deref(), *unit, v.span)?;
+                if !x.is_finite() {
+                    self.errors.push(
+                        Diagnostic::error(format!(
+                            "`{text}` overflows when converted to {}",
+                            unit.canonical()
+                        ))
+                        .with_code("tessera::range")
+                        .with_label(v.span, "too large once converted"),
+                    );
+                    return None;
+                }
+                self.in_range(x, *range, *unit, v.span)
+            }
+            (Ty::Int(lo, hi), ValueKind::Number { text, unit: None, .. }) => {
+                // Integers are read from their digits, not through an f64 (which rounds
+                // 9007199254740993 to ...992), and are kept within ±2^53 so that any use
+                // of them as a number is exact too.
+                let (lo, hi) = ((*lo).max(-MAX_EXACT_INT), (*hi).min(MAX_EXACT_INT));
+                match integer_literal(text) {
+                    Some(Some(n)) if (i128::from(lo)..=i128::from(hi)).contains(&n) => Some(Val::Int(n as i64)),
+                    found => {
+                        let label = if found.is_none() { "not a whole number" } else { "out of range" };
+                        let mut d =
+                            Diagnostic::error(format!("expected an integer from {lo} to {hi}, found `{text}`"))
+                                .with_code("tessera::range")
+                                .with_label(v.span, label);
+                        if hi == MAX_EXACT_INT {
+                            d = d.with_help("integers are limited to 2^53, the largest range a 64-bit float holds exactly");
+                        }
+                        self.errors.push(d);
+                        None
+                    }
+                }
             }
             (Ty::Bool, ValueKind::Bool(b)) => Some(Val::Bool(*b)),
             (Ty::Size, ValueKind::Size { w, h, .. }) => {
@@ -471,15 +555,15 @@ impl<'a> Checker<'a> {
                     );
                     return None;
                 }
-                self.numbers(items, *unit).map(Val::Numbers)
+                self.numbers(items, *unit, super::schema::ANY).map(Val::Numbers)
             }
-            (Ty::Numbers(unit), ValueKind::Vector(items)) => self.numbers(items, *unit).map(Val::Numbers),
+            (Ty::Numbers(unit, range), ValueKind::Vector(items)) => self.numbers(items, *unit, *range).map(Val::Numbers),
             (Ty::Points, ValueKind::Vector(items)) => {
                 let mut pts = Vec::new();
                 for it in items {
                     match &it.kind {
                         ValueKind::Vector(xy) if xy.len() == 2 => {
-                            let n = self.numbers(xy, Unit::Length)?;
+                            let n = self.numbers(xy, Unit::Length, super::schema::ANY)?;
                             pts.push([n[0], n[1]]);
                         }
                         _ => return self.mismatch(it, &Ty::Vec2(Unit::Length)),
@@ -603,10 +687,10 @@ impl<'a> Checker<'a> {
         Some(Val::Dir(path, files))
     }
 
-    fn numbers(&mut self, items: &[ast::Value], unit: Unit) -> Option<Vec<f64>> {
+    fn numbers(&mut self, items: &[ast::Value], unit: Unit, range: Range) -> Option<Vec<f64>> {
         let mut out = Vec::with_capacity(items.len());
         for it in items {
-            match self.check_value(it, &Ty::Number(unit, super::schema::ANY), Path::new(""), 0)? {
+            match self.check_value(it, &Ty::Number(unit, range), Path::new(""), 0)? {
                 Val::Num(x) => out.push(x),
                 _ => return None,
             }
@@ -654,7 +738,14 @@ impl<'a> Checker<'a> {
         if x >= r.min && x <= r.max {
             return Some(Val::Num(x));
         }
-        let shown = |b: f64| if unit == Unit::Angle { format!("{} deg", b.to_degrees()) } else { format!("{b}") };
+        let compact = |b: f64| {
+            if b != 0.0 && !(1e-4..1e9).contains(&b.abs()) {
+                format!("{b:e}")
+            } else {
+                format!("{b}")
+            }
+        };
+        let shown = |b: f64| if unit == Unit::Angle { format!("{} deg", compact(b.to_degrees())) } else { compact(b) };
         let msg = if r.max == f64::INFINITY && r.min == f64::MIN_POSITIVE {
             "must be greater than 0".to_string()
         } else if r.max == f64::INFINITY {

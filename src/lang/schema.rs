@@ -57,6 +57,16 @@ pub enum Unit {
 }
 
 impl Unit {
+    /// The unit values are stored in, for messages.
+    pub fn canonical(self) -> &'static str {
+        match self {
+            Unit::Length => "pixels",
+            Unit::Angle => "radians",
+            Unit::Fraction => "a fraction",
+            Unit::Plain => "a number",
+        }
+    }
+
     pub fn describe(self) -> &'static str {
         match self {
             Unit::Length => "a length (`px`)",
@@ -87,8 +97,8 @@ pub enum Ty {
     Size,
     /// `[x, y]`.
     Vec2(Unit),
-    /// `[a, b, ...]` of any length.
-    Numbers(Unit),
+    /// `[a, b, ...]` of any length, each number in the range.
+    Numbers(Unit, Range),
     /// `[[x, y], [x, y], ...]`.
     Points,
     Str,
@@ -120,7 +130,7 @@ impl Ty {
             Ty::Bool => "`true` or `false`".into(),
             Ty::Size => "a size `W x H`".into(),
             Ty::Vec2(_) => "a vector `[x, y]`".into(),
-            Ty::Numbers(_) => "a vector of numbers".into(),
+            Ty::Numbers(..) => "a vector of numbers".into(),
             Ty::Points => "a list of points `[[x, y], ...]`".into(),
             Ty::Str => "a string".into(),
             Ty::Path => "a file path string".into(),

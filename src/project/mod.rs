@@ -2,6 +2,7 @@
 //! `main.rs` only parses arguments and prints what these return.
 
 mod check;
+pub mod format;
 pub mod manifest;
 mod show;
 pub mod texture;

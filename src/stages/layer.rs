@@ -248,6 +248,7 @@ fn quilt_error(e: QuiltError) -> StageError {
         QuiltError::ChannelMismatch { what, .. } if what.contains("weight") => StageError::new(msg).at_prop("weights"),
         QuiltError::Invalid { name, .. } => StageError::new(msg).at_prop(match name {
             "tolerance" => "tolerance",
+            "channel weight" => "weights",
             "alpha" | "terms" => "alpha",
             _ => "quilt",
         }),

@@ -67,7 +67,7 @@ pub static SPEC: KindSpec = KindSpec {
         ),
         prop(
             "weights",
-            Ty::Numbers(Unit::Plain),
+            Ty::Numbers(Unit::Plain, NON_NEG),
             Default::Absent,
             "Per-channel weights of the matching error (one per sample channel). Default all 1.",
         ),

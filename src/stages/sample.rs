@@ -4,7 +4,7 @@
 
 use super::{Bytes, FnStage, Planner};
 use crate::graph::{NodeId, StageError};
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit};
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, ANY};
 use crate::lang::{Decl, Diagnostic, Val};
 use crate::raster::{self, Image};
 
@@ -27,7 +27,7 @@ pub static SPEC: KindSpec = KindSpec {
         },
         PropSpec {
             name: "crop",
-            ty: Ty::Numbers(Unit::Length),
+            ty: Ty::Numbers(Unit::Length, ANY),
             default: Default::Absent,
             doc: "`[x, y, w, h]` in pixels of the source image, applied before `resize`.",
         },
