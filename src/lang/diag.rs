@@ -185,7 +185,7 @@ impl Excerpt {
             if let Some(last) = kept.last_mut() {
                 if a <= last.1 {
                     if b > last.1 {
-                        text.push_str(&t[last.1..b]);
+                        push_printable(&mut text, &t[last.1..b]);
                         last.1 = b;
                     }
                     shown_to = last.1;
@@ -196,7 +196,7 @@ impl Excerpt {
                 text.push_str(ELLIPSIS);
             }
             kept.push((a, b, text.len()));
-            text.push_str(&t[a..b]);
+            push_printable(&mut text, &t[a..b]);
             shown_to = b;
         }
         if shown_to < t.len() {
@@ -226,6 +226,18 @@ impl Excerpt {
     fn span(&self, s: Span) -> SourceSpan {
         let (a, b) = (self.map(s.start), self.map(s.end));
         (a, b.max(a) - a).into()
+    }
+}
+
+/// Control characters (a stray NUL, an escape) would act on the terminal; each becomes a
+/// `?` of the same byte length, so offsets stay put.
+fn push_printable(out: &mut String, s: &str) {
+    for c in s.chars() {
+        if c.is_control() && !matches!(c, '\t' | '\n' | '\r') {
+            out.extend(std::iter::repeat_n('?', c.len_utf8()));
+        } else {
+            out.push(c);
+        }
     }
 }
 

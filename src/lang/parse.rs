@@ -218,7 +218,9 @@ fn syntax_error(e: pest::error::Error<Rule>, text: &str, file: FileId, brackets:
 fn found_at(text: &str, pos: usize) -> String {
     match text.get(pos..).and_then(|t| t.chars().next()) {
         None => "end of file".into(),
-        Some(c) if c.is_control() || c.is_whitespace() || c == '\u{feff}' => format!("character {}", c.escape_unicode()),
+        Some(c) if c.is_control() || c.is_whitespace() || c == '\u{feff}' => {
+            format!("character {}", c.escape_unicode())
+        }
         Some(c) => format!("`{c}`"),
     }
 }
@@ -238,7 +240,9 @@ fn non_ascii_name(text: &str, pos: usize, file: FileId) -> Option<Diagnostic> {
         Diagnostic::error(format!("names are ASCII: `{name}` contains `{c}`"))
             .with_code("tessera::syntax")
             .with_label(Span::new(file, start, end), "not an ASCII name")
-            .with_help("names are made of ASCII letters, digits, `_` and `-`; other text belongs in strings or comments"),
+            .with_help(
+                "names are made of ASCII letters, digits, `_` and `-`; other text belongs in strings or comments",
+            ),
     )
 }
 
@@ -505,6 +509,42 @@ output "a.png" { from = stones }
         let ValueKind::Str(s) = &d.block.properties().next().unwrap().value.kind else { panic!() };
         assert_eq!(s, "a \"b\" \\ c");
         assert_eq!(escape(s), r#""a \"b\" \\ c""#);
+    }
+
+    /// Nesting at the limit parses, builds its tree, formats and drops within a small
+    /// stack (far less than a main thread's 8 MB), so the limit leaves a wide margin.
+    #[test]
+    fn nesting_at_the_limit_fits_a_small_stack() {
+        let n = MAX_NESTING - 1;
+        let text = format!("map a {{ from = {}1{} }}\n", "[".repeat(n), "]".repeat(n));
+        std::thread::Builder::new()
+            .stack_size(512 * 1024)
+            .spawn(move || {
+                let f = parse_file(&text, FileId(0)).unwrap_or_else(|e| panic!("{}", e.message));
+                drop(f);
+                crate::lang::fmt::format_source(&text).unwrap();
+            })
+            .unwrap()
+            .join()
+            .unwrap();
+        let deeper = format!("map a {{ from = {}1{} }}\n", "[".repeat(n + 1), "]".repeat(n + 1));
+        let e = parse_file(&deeper, FileId(0)).unwrap_err();
+        assert_eq!(e.code, "tessera::nesting");
+        assert_eq!(e.labels[0].0.start, "map a { from = ".len() + n);
+    }
+
+    #[test]
+    fn brackets_in_strings_and_comments_do_not_count() {
+        parse("# a { comment [ (\nsample a { image = \"{[(.png\" } // ]\n");
+        let e = parse_file("sample a { image = \"x\\\"}\" \n", FileId(0)).unwrap_err();
+        assert!(e.message.contains("unclosed `{`"), "{}", e.message);
+    }
+
+    #[test]
+    fn a_syntax_error_before_an_unclosed_bracket_is_reported_first() {
+        let e = parse_file("map a { from = }\nmap b {\n", FileId(0)).unwrap_err();
+        assert!(e.message.contains("expected"), "{}", e.message);
+        assert_eq!(e.labels[0].0.start, 15);
     }
 
     #[test]

@@ -15,6 +15,10 @@ use super::source::{FileId, SourceMap, Span};
 /// per channel, and a typo should not be able to exhaust the machine's memory.
 const MAX_SIDE: f64 = 16384.0;
 
+/// The largest magnitude of a number: stages compute in f32, and a larger f64 would reach
+/// them as an infinity (reported as "inf", far from the number the user wrote).
+const MAX_NUMBER: f64 = f32::MAX as f64;
+
 /// The largest integer a property may hold: 2^53, up to which every integer is exactly an
 /// f64 (integers also serve as numbers, and params pass through the same values).
 const MAX_EXACT_INT: i64 = 1 << 53;
@@ -32,8 +36,7 @@ fn integer_literal(text: &str) -> Option<Option<i128>> {
     };
     let (int, frac) = mantissa.split_once('.').unwrap_or((mantissa, ""));
     // An exponent too long for i64 makes the value certainly too large (or below 1).
-    let exponent: i64 =
-        exponent.parse().unwrap_or(if exponent.starts_with('-') { i64::MIN / 2 } else { i64::MAX / 2 });
+    let exponent: i64 = exponent.parse().unwrap_or(if exponent.starts_with('-') { i64::MIN / 2 } else { i64::MAX / 2 });
     let digits: String = format!("{int}{frac}");
     let digits = digits.trim_start_matches('0');
     if digits.is_empty() {
@@ -490,23 +493,21 @@ impl<'a> Checker<'a> {
         }
         match (ty, &v.kind) {
             (Ty::Number(unit, range), ValueKind::Number { value, unit: u, text }) => {
-                if !value.is_finite() {
+                if !value.is_finite() || value.abs() > MAX_NUMBER {
                     self.errors.push(
-                        Diagnostic::error(format!("`{text}` is too large: numbers lie within about ±{:.1e}", f64::MAX))
+                        Diagnostic::error(format!("`{text}` is too large: numbers lie within ±{MAX_NUMBER:.1e}"))
                             .with_code("tessera::range")
-                            .with_label(v.span, "beyond the range of numbers"),
+                            .with_label(v.span, "beyond the range of numbers")
+                            .with_help("tessera computes in 32-bit floats, whose largest value is about 3.4e38"),
                     );
                     return None;
                 }
                 let x = self.convert_unit(*value, u.as_deref(), *unit, v.span)?;
-                if !x.is_finite() {
+                if !x.is_finite() || x.abs() > MAX_NUMBER {
                     self.errors.push(
-                        Diagnostic::error(format!(
-                            "`{text}` overflows when converted to {}",
-                            unit.canonical()
-                        ))
-                        .with_code("tessera::range")
-                        .with_label(v.span, "too large once converted"),
+                        Diagnostic::error(format!("`{text}` overflows when converted to {}", unit.canonical()))
+                            .with_code("tessera::range")
+                            .with_label(v.span, "too large once converted"),
                     );
                     return None;
                 }
@@ -521,12 +522,13 @@ impl<'a> Checker<'a> {
                     Some(Some(n)) if (i128::from(lo)..=i128::from(hi)).contains(&n) => Some(Val::Int(n as i64)),
                     found => {
                         let label = if found.is_none() { "not a whole number" } else { "out of range" };
-                        let mut d =
-                            Diagnostic::error(format!("expected an integer from {lo} to {hi}, found `{text}`"))
-                                .with_code("tessera::range")
-                                .with_label(v.span, label);
+                        let mut d = Diagnostic::error(format!("expected an integer from {lo} to {hi}, found `{text}`"))
+                            .with_code("tessera::range")
+                            .with_label(v.span, label);
                         if hi == MAX_EXACT_INT {
-                            d = d.with_help("integers are limited to 2^53, the largest range a 64-bit float holds exactly");
+                            d = d.with_help(
+                                "integers are limited to 2^53, the largest range a 64-bit float holds exactly",
+                            );
                         }
                         self.errors.push(d);
                         None
@@ -557,7 +559,9 @@ impl<'a> Checker<'a> {
                 }
                 self.numbers(items, *unit, super::schema::ANY).map(Val::Numbers)
             }
-            (Ty::Numbers(unit, range), ValueKind::Vector(items)) => self.numbers(items, *unit, *range).map(Val::Numbers),
+            (Ty::Numbers(unit, range), ValueKind::Vector(items)) => {
+                self.numbers(items, *unit, *range).map(Val::Numbers)
+            }
             (Ty::Points, ValueKind::Vector(items)) => {
                 let mut pts = Vec::new();
                 for it in items {
@@ -945,4 +949,25 @@ fn unknown_property(name: &ast::Ident, specs: &[PropSpec], what: &str) -> Diagno
         )),
     };
     d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::integer_literal;
+
+    #[test]
+    fn integer_literals_are_read_exactly() {
+        assert_eq!(integer_literal("9007199254740993"), Some(Some(9_007_199_254_740_993)));
+        assert_eq!(integer_literal("-12"), Some(Some(-12)));
+        assert_eq!(integer_literal("1.5e3"), Some(Some(1500)));
+        assert_eq!(integer_literal("20.000"), Some(Some(20)));
+        assert_eq!(integer_literal("0.0"), Some(Some(0)));
+        assert_eq!(integer_literal("1200e-2"), Some(Some(12)));
+        assert_eq!(integer_literal("1.5"), None);
+        assert_eq!(integer_literal("9007199254740992.5"), None);
+        assert_eq!(integer_literal("5e-1"), None);
+        assert_eq!(integer_literal("1e400"), Some(None));
+        assert_eq!(integer_literal("1e99999999999999999999"), Some(None));
+        assert_eq!(integer_literal("1e-99999999999999999999"), None);
+    }
 }

@@ -169,18 +169,36 @@ impl Prepare {
                 .at_prop("crop")
             })?;
         }
+        // The decoded values are finite; resampling and colour conversion can still take
+        // extreme ones (an EXR of ±3e38) past f32. Say so, rather than let a later stage
+        // find "NaN or infinite" values the file does not hold.
+        let largest = img.data.iter().fold(0f32, |m, v| m.max(v.abs()));
+        let overflow = |what: &str| {
+            StageError::new(format!("the image's values (up to ±{largest:.1e}) overflow 32-bit floats when {what}"))
+                .in_file(file)
+                .with_help("scale the file's values into a usual range (EXR samples are taken as linear light)")
+        };
         if let Some((w, h)) = self.resize {
             img = raster::resample::resize(&img, w as usize, h as usize, self.filter);
+            if img.data.iter().any(|v| !v.is_finite()) {
+                return Err(overflow("resized"));
+            }
         }
-        match self.color.as_str() {
-            "srgb" => Ok(raster::color::image_linear_to_srgb(&img)),
-            "lab" if img.channels >= 3 => Ok(raster::color::image_linear_to_lab(&img)),
-            "lab" => Err(StageError::new(format!(
-                "`color = lab` needs an RGB image; this one has {} channel(s)",
-                img.channels
-            ))
-            .at_prop("color")),
-            _ => Ok(img),
+        let img = match self.color.as_str() {
+            "srgb" => raster::color::image_linear_to_srgb(&img),
+            "lab" if img.channels >= 3 => raster::color::image_linear_to_lab(&img),
+            "lab" => {
+                return Err(StageError::new(format!(
+                    "`color = lab` needs an RGB image; this one has {} channel(s)",
+                    img.channels
+                ))
+                .at_prop("color"))
+            }
+            _ => img,
+        };
+        if img.data.iter().any(|v| !v.is_finite()) {
+            return Err(overflow(&format!("converted to `color = {}`", self.color)));
         }
+        Ok(img)
     }
 }
