@@ -166,13 +166,13 @@ fn a_negative_channel_weight_is_reported_at_the_weight() {
 #[test]
 fn an_integer_an_f64_cannot_hold_is_refused_with_the_range() {
     let err = failed_build("big_seed", "scene { seed = 9007199254740993 }\n", &[]);
-    assert!(err.contains("expected an integer from 0 to 9007199254740992, found `9007199254740993`"), "{err}");
+    assert!(err.contains("expected an integer from 0 to 9007199254740992, found 9007199254740993"), "{err}");
     assert_eq!(location(&err), "scene.tess:1:16");
     // Through a param and `--set` the digits are read the same way.
     let p = Project::new(&[("scene.tess", "param s = 1\nscene { seed = s }\n")]);
     let run = p.tessera(&["build", "--set", "s=9007199254740993", "scene.tess"]);
     run.failed();
-    assert!(run.stderr().contains("found `9007199254740993`"), "{}", run.stderr());
+    assert!(run.stderr().contains("found 9007199254740993"), "{}", run.stderr());
     // Whole numbers in other spellings are still integers.
     let p = Project::new(&[("scene.tess", "scene { seed = 1.5e3 }\n")]);
     p.tessera(&["build", "scene.tess"]).ok();

@@ -522,7 +522,7 @@ impl<'a> Checker<'a> {
                     Some(Some(n)) if (i128::from(lo)..=i128::from(hi)).contains(&n) => Some(Val::Int(n as i64)),
                     found => {
                         let label = if found.is_none() { "not a whole number" } else { "out of range" };
-                        let mut d = Diagnostic::error(format!("expected an integer from {lo} to {hi}, found `{text}`"))
+                        let mut d = Diagnostic::error(format!("expected an integer from {lo} to {hi}, found {text}"))
                             .with_code("tessera::range")
                             .with_label(v.span, label);
                         if hi == MAX_EXACT_INT {
