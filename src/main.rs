@@ -185,6 +185,13 @@ fn run(cli: &Cli, p: &mut Project) -> CmdResult {
                     r.freed_bytes as f64 / 1024.0
                 );
             }
+            if !r.foreign.is_empty() {
+                eprintln!(
+                    "warning: {} file(s) in the cache directory are not cache entries and were left alone, e.g. `{}`",
+                    r.foreign.len(),
+                    r.foreign[0].display()
+                );
+            }
             Ok(())
         }
         Command::Explain { .. } | Command::Fmt { .. } | Command::Similar { .. } | Command::Compare { .. } => {
@@ -205,6 +212,7 @@ fn build(cli: &Cli, p: &Project, paths: &[PathBuf], mode: Mode) -> CmdResult {
     let mut failed = false;
     let mut rows = Vec::new();
     let mut reports = Vec::new();
+    let mut claims = project::Claims::default();
     for scene in &scenes {
         p.world.begin_build();
         let built = match p.build(scene) {
@@ -215,6 +223,11 @@ fn build(cli: &Cli, p: &Project, paths: &[PathBuf], mode: Mode) -> CmdResult {
                 continue;
             }
         };
+        if let Err(f) = claims.claim(&built) {
+            print_failed(&f);
+            failed = true;
+            continue;
+        }
         let emitted = match p.emit(&built) {
             Ok(e) => e,
             Err(f) => {
@@ -318,6 +331,16 @@ fn print_check_table(rows: &[project::CheckRow]) {
             r.tolerance,
             format!("{}/{}", r.failing_pixels, r.total_pixels)
         );
+        if r.exact {
+            println!("       compared exactly: its values are identities");
+        } else if let (Some(bits), Some(tol)) = (r.bits, r.tolerance_steps) {
+            if r.status == CheckStatus::Fail {
+                println!(
+                    "       in {bits}-bit steps: max diff {}, tolerance {tol} (the fraction rounded down to whole steps)",
+                    r.max_steps.unwrap_or(0)
+                );
+            }
+        }
         if let Some(n) = &r.note {
             println!("       {n}");
         }

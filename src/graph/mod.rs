@@ -2,14 +2,16 @@
 //! stages are opaque boxes with a kind, a version, parameters, inputs and files.
 pub mod cache;
 pub mod exec;
+pub mod files;
 pub mod key;
 pub mod progress;
 pub mod stage;
 pub mod watch;
 pub mod world;
 
-pub use cache::{write_atomic, Cache};
+pub use cache::Cache;
 pub use exec::{Executor, Failure, MemoryCache, Outcome, Report, StageRecord, Status};
+pub use files::write_atomic;
 pub use key::Key;
 pub use stage::{Artifact, Graph, Node, NodeId, RunCx, Stage, StageError};
 pub use world::World;

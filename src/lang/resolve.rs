@@ -112,16 +112,38 @@ pub fn compile(root: &Path, loader: &dyn Loader, opts: &Options) -> Result<Scene
 }
 
 /// Lexical normalisation (`a/./b/../c` → `a/c`), so one file reached by two paths is one file.
+///
+/// A `..` cancels the component before it only where the operating system would agree:
+/// that component is a real directory (not a link, which the system follows first, nor a
+/// missing name, which makes the whole path fail). Elsewhere the `..` stays, so the read
+/// resolves, or fails, exactly as the system resolves it. `/..` is `/`.
 pub fn normalize(p: &Path) -> PathBuf {
     let mut out = PathBuf::new();
     for c in p.components() {
         match c {
             Component::CurDir => {}
-            Component::ParentDir => {
-                if !out.pop() {
-                    out.push("..");
+            Component::ParentDir => match out.components().next_back() {
+                Some(Component::RootDir | Component::Prefix(_)) => {}
+                Some(Component::Normal(_)) => {
+                    match std::fs::symlink_metadata(&out) {
+                        Ok(m) if m.is_dir() => {
+                            out.pop();
+                        }
+                        Ok(m) if m.file_type().is_symlink() && out.is_dir() => {
+                            // Follow the link as the system would, then go up from its target.
+                            match out.canonicalize() {
+                                Ok(real) => {
+                                    out = real;
+                                    out.pop();
+                                }
+                                Err(_) => out.push(".."),
+                            }
+                        }
+                        _ => out.push(".."),
+                    }
                 }
-            }
+                _ => out.push(".."),
+            },
             c => out.push(c),
         }
     }

@@ -8,6 +8,7 @@ use super::{Built, Failed, Project};
 use crate::golden::{self, Tolerance};
 use crate::graph;
 use crate::raster;
+use crate::stages::OutputFormat;
 
 /// Default tolerance on numbers in text outputs (JSON, SVG), which are written rounded to 1e-6.
 const TEXT_TOLERANCE: f64 = 2e-6;
@@ -28,7 +29,14 @@ pub struct CheckRow {
     pub max_abs: f32,
     pub failing_pixels: usize,
     pub total_pixels: usize,
+    /// The tolerance as a fraction of the full range (0 when compared exactly).
     pub tolerance: f64,
+    /// Bits per channel of an integer-coded image output; differences are then in steps.
+    pub bits: Option<u32>,
+    pub max_steps: Option<u64>,
+    pub tolerance_steps: Option<u64>,
+    /// Compared exactly (identities).
+    pub exact: bool,
     pub diff: Option<PathBuf>,
     pub note: Option<String>,
 }
@@ -38,9 +46,28 @@ impl Project {
         let mut rows = Vec::new();
         for (o, bytes) in &built.outputs {
             let golden_path = self.golden_dir(&built.name).join(&o.name);
-            let tol = Tolerance {
-                max_abs: o.tolerance.unwrap_or(self.manifest.check.tolerance) as f32,
-                max_fraction: if o.outliers > 0.0 { o.outliers } else { self.manifest.check.outliers } as f32,
+            let diff_path = self.diff_path(&built.name, &o.name)?;
+            let fraction = o.tolerance.unwrap_or(self.manifest.check.tolerance);
+            // Integer-coded files compare in their own steps, the tolerance rounded down to
+            // whole steps (1/255 is 1 step of an 8-bit PNG, 257 of a 16-bit one); identities
+            // compare exactly.
+            let bits = match o.format {
+                OutputFormat::Png8 => Some(8u32),
+                OutputFormat::Png16 => Some(16),
+                _ => None,
+            };
+            let steps = bits.map(|b| if o.exact { 0 } else { steps_within(fraction, b) });
+            let tol = match (steps, bits) {
+                (Some(n), Some(b)) => Tolerance {
+                    // Half a step of slack, so float noise in decoding never decides.
+                    max_abs: ((n as f64 + 0.5) / ((1u64 << b) - 1) as f64) as f32,
+                    max_fraction: if o.exact { 0.0 } else { outliers(o.outliers, self.manifest.check.outliers) },
+                },
+                _ if o.exact => Tolerance::EXACT,
+                _ => Tolerance {
+                    max_abs: fraction as f32,
+                    max_fraction: outliers(o.outliers, self.manifest.check.outliers),
+                },
             };
             let mut row = CheckRow {
                 scene: built.name.clone(),
@@ -49,7 +76,11 @@ impl Project {
                 max_abs: 0.0,
                 failing_pixels: 0,
                 total_pixels: 0,
-                tolerance: tol.max_abs as f64,
+                tolerance: if o.exact { 0.0 } else { fraction },
+                bits,
+                max_steps: None,
+                tolerance_steps: steps,
+                exact: o.exact,
                 diff: None,
                 note: None,
             };
@@ -100,22 +131,48 @@ impl Project {
             };
             let cmp = golden::compare(&actual, &expected, &tol);
             row.max_abs = cmp.max_abs;
+            row.max_steps = bits.map(|b| (cmp.max_abs as f64 * ((1u64 << b) - 1) as f64).round() as u64);
             row.failing_pixels = cmp.failing_pixels;
             row.total_pixels = cmp.total_pixels;
             row.note = cmp.mismatch.clone();
             row.status = if cmp.pass { CheckStatus::Pass } else { CheckStatus::Fail };
-            if !cmp.pass {
+            if cmp.pass {
+                // The diff of an earlier failure no longer says anything.
+                let _ = std::fs::remove_file(&diff_path);
+            } else {
                 let diff = golden::diff_image(&actual, &expected, &tol);
-                let stem = std::path::Path::new(&o.name).with_extension("");
-                let path = self.output_dir(&built.name).join(format!("{}.diff.png", stem.display()));
                 let png = raster::io::encode_png(&diff, 8)
                     .map_err(|e| super::plain_error(format!("cannot encode a diff image: {e}")))?;
-                graph::write_atomic(&path, &png)
-                    .map_err(|e| super::plain_error(format!("cannot write `{}`: {e}", path.display())))?;
-                row.diff = Some(path);
+                graph::write_atomic(&diff_path, &png)
+                    .map_err(|e| super::plain_error(format!("cannot write `{}`: {e}", diff_path.display())))?;
+                row.diff = Some(diff_path);
             }
             rows.push(row);
         }
         Ok(rows)
+    }
+}
+
+/// Whole steps of a `bits`-bit code within `fraction` of the full range, rounded down (with
+/// a hair of slack so that 1/255 is exactly one 8-bit step).
+fn steps_within(fraction: f64, bits: u32) -> u64 {
+    (fraction * ((1u64 << bits) - 1) as f64 + 1e-9).floor().max(0.0) as u64
+}
+
+fn outliers(output: f64, manifest: f64) -> f32 {
+    (if output > 0.0 { output } else { manifest }) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::steps_within;
+
+    #[test]
+    fn tolerances_round_down_to_whole_steps() {
+        assert_eq!(steps_within(1.0 / 255.0, 8), 1);
+        assert_eq!(steps_within(0.004, 8), 1);
+        assert_eq!(steps_within(0.004, 16), 262);
+        assert_eq!(steps_within(1.0 / 255.0, 16), 257);
+        assert_eq!(steps_within(0.0, 16), 0);
     }
 }

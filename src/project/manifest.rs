@@ -75,6 +75,7 @@ pub fn load(root: &Path) -> Result<Manifest, Diagnostics> {
             .with_help("sections are [paths] (scenes, outputs, golden, cache) and [check] (tolerance, outliers)");
         Diagnostics::new(vec![d], sources)
     })?;
+    check_paths(root, &path, &text)?;
     if !(0.0..=1.0).contains(&manifest.check.tolerance) || !(0.0..=1.0).contains(&manifest.check.outliers) {
         return Err(Diagnostics::new(
             vec![Diagnostic::error(format!("invalid {FILE_NAME}: [check] tolerance and outliers lie in [0, 1]"))
@@ -83,6 +84,120 @@ pub fn load(root: &Path) -> Result<Manifest, Diagnostics> {
         ));
     }
     Ok(manifest)
+}
+
+/// The `[paths]` values with their spans, for diagnostics.
+#[derive(Deserialize, Default)]
+struct SpannedManifest {
+    #[serde(default)]
+    paths: SpannedPaths,
+}
+
+#[derive(Deserialize, Default)]
+struct SpannedPaths {
+    scenes: Option<toml::Spanned<PathBuf>>,
+    outputs: Option<toml::Spanned<PathBuf>>,
+    golden: Option<toml::Spanned<PathBuf>>,
+    cache: Option<toml::Spanned<PathBuf>>,
+}
+
+/// Refuses directory layouts in which a write or a `gc` could reach a user's files: the
+/// directories tessera writes (outputs, goldens, cache) must each be a directory of their
+/// own, not the project root or one of its parents, not one another's, and not holding the
+/// scenes.
+fn check_paths(root: &Path, file: &Path, text: &str) -> Result<(), Diagnostics> {
+    let spanned: SpannedManifest = toml::from_str(text).unwrap_or_default();
+    let defaults = Paths::default();
+    let abs_root = absolute(root);
+    let entry = |name: &'static str, value: &Option<toml::Spanned<PathBuf>>, default: &PathBuf| {
+        let (path, span) = match value {
+            Some(v) => (v.get_ref().clone(), Some(v.span())),
+            None => (default.clone(), None),
+        };
+        (name, absolute(&abs_root.join(&path)), path, span)
+    };
+    let written = [
+        entry("outputs", &spanned.paths.outputs, &defaults.outputs),
+        entry("golden", &spanned.paths.golden, &defaults.golden),
+        entry("cache", &spanned.paths.cache, &defaults.cache),
+    ];
+    let scenes = entry("scenes", &spanned.paths.scenes, &defaults.scenes);
+    let own = |abs: &PathBuf, path: &PathBuf| {
+        if path.as_os_str().is_empty() {
+            Some("is empty".to_string())
+        } else if abs_root.starts_with(abs) {
+            Some(format!("`{}` is the project root or holds it", path.display()))
+        } else if scenes.1.starts_with(abs) {
+            Some(format!("`{}` holds the scenes directory", path.display()))
+        } else {
+            None
+        }
+    };
+    let mut problems = Vec::new();
+    for (i, (name, abs, path, span)) in written.iter().enumerate() {
+        // Overlaps are reported between directories that are otherwise sound.
+        let why = own(abs, path).or_else(|| {
+            written
+                .iter()
+                .enumerate()
+                .find(|(j, w)| *j != i && own(&w.1, &w.2).is_none() && (abs.starts_with(&w.1) || w.1.starts_with(abs)))
+                .map(|(_, (other, _, other_path, _))| {
+                    format!("`{}` overlaps `{other}` (`{}`)", path.display(), other_path.display())
+                })
+        });
+        if let Some(why) = why {
+            problems.push((
+                format!("[paths] {name} {why}; tessera writes and deletes there, so it must be a directory of its own"),
+                span.clone(),
+            ));
+        }
+    }
+    if problems.is_empty() {
+        return Ok(());
+    }
+    let mut sources = SourceMap::default();
+    let id = sources.add(file.to_path_buf(), FILE_NAME.into(), Arc::from(text));
+    let items = problems
+        .into_iter()
+        .map(|(message, span)| {
+            let d = Diagnostic::error(format!("invalid {FILE_NAME}: {message}"))
+                .with_code("tessera::manifest_paths")
+                .with_help("e.g. outputs = \"out\", golden = \"golden\", cache = \".tessera/cache\"");
+            match span {
+                Some(r) => d.with_label(Span::new(id, r.start, r.end), "here"),
+                None => d,
+            }
+        })
+        .collect();
+    Err(Diagnostics::new(items, sources))
+}
+
+/// `p` made absolute and resolved as the operating system would: the part that exists has
+/// its links and `..` resolved; the rest is taken as written.
+fn absolute(p: &Path) -> PathBuf {
+    let p = if p.is_absolute() { p.to_path_buf() } else { std::env::current_dir().unwrap_or_default().join(p) };
+    let mut existing = p.clone();
+    let mut rest: Vec<std::ffi::OsString> = Vec::new();
+    loop {
+        if let Ok(real) = existing.canonicalize() {
+            let mut out = real;
+            for c in rest.iter().rev() {
+                match c.to_str() {
+                    Some("..") => {
+                        out.pop();
+                    }
+                    Some(".") => {}
+                    _ => out.push(c),
+                }
+            }
+            return out;
+        }
+        let Some(last) = existing.components().next_back().map(|c| c.as_os_str().to_os_string()) else { return p };
+        rest.push(last);
+        if !existing.pop() {
+            return p;
+        }
+    }
 }
 
 #[cfg(test)]
@@ -100,6 +215,26 @@ mod tests {
         let sub = dir.path().join("a/b");
         std::fs::create_dir_all(&sub).unwrap();
         assert_eq!(find_root(&sub).as_deref(), Some(dir.path()));
+    }
+
+    #[test]
+    fn written_directories_may_not_hold_the_project() {
+        let dir = tempfile::tempdir().unwrap();
+        for (text, bad) in [
+            ("[paths]\ncache = \"\"\n", "cache"),
+            ("[paths]\ncache = \".\"\n", "cache"),
+            ("[paths]\ncache = \"..\"\n", "cache"),
+            ("[paths]\noutputs = \"./\"\n", "outputs"),
+            ("[paths]\ngolden = \"out\"\n", "golden"),
+            ("[paths]\ncache = \"out/cache\"\n", "outputs"),
+            ("[paths]\noutputs = \"data\"\nscenes = \"data/scenes\"\n", "outputs"),
+        ] {
+            std::fs::write(dir.path().join(FILE_NAME), text).unwrap();
+            let e = load(dir.path()).unwrap_err();
+            assert!(e.items.iter().any(|d| d.message.contains(&format!("[paths] {bad}"))), "{text}: {:?}", e.items);
+        }
+        std::fs::write(dir.path().join(FILE_NAME), "[paths]\ncache = \"../shared-cache\"\n").unwrap();
+        assert!(load(dir.path()).is_ok());
     }
 
     #[test]

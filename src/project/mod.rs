@@ -18,7 +18,7 @@ pub use manifest::Manifest;
 pub use show::{graph_dot, graph_text, timings_table};
 pub use watch::{watch, WatchEvent};
 
-use crate::graph::{self, Cache, Executor, Key, MemoryCache, Report, World};
+use crate::graph::{self, files, Cache, Executor, Key, MemoryCache, Report, World};
 use crate::lang::{self, Diagnostic, Diagnostics, Scene};
 use crate::stages::{self, Bytes, Plan, PlannedOutput};
 
@@ -140,6 +140,7 @@ impl Project {
     /// Builds a scene's outputs (in memory; `emit` writes them).
     pub fn build(&self, path: &Path) -> Result<Built, Failed> {
         let start = Instant::now();
+        let name = self.scene_name(path)?;
         let (scene, plan) = self.compile(path)?;
         let targets: Vec<_> = plan.outputs.iter().map(|o| o.node).collect();
         let outcome = match self.executor().run(&plan.graph, &targets) {
@@ -162,7 +163,7 @@ impl Project {
             .collect();
         Ok(Built {
             scene_path: path.to_path_buf(),
-            name: scene_name(path),
+            name,
             scene,
             plan,
             outputs,
@@ -171,34 +172,115 @@ impl Project {
         })
     }
 
-    /// Writes a build's outputs atomically, skipping files that already hold those bytes.
-    pub fn emit(&self, built: &Built) -> Result<Vec<Emitted>, Failed> {
-        let dir = self.output_dir(&built.name);
-        let mut out = Vec::new();
-        for (o, bytes) in &built.outputs {
-            let path = dir.join(&o.name);
-            let same = std::fs::metadata(&path).is_ok_and(|m| m.len() == bytes.0.len() as u64)
-                && std::fs::read(&path).is_ok_and(|b| b == bytes.0);
-            if !same {
-                graph::write_atomic(&path, &bytes.0)
-                    .map_err(|e| plain_error(format!("cannot write `{}`: {e}", path.display())))?;
+    /// The name of a scene, which names its output and golden directories: its path below
+    /// the scenes directory without `.tess` (`scenes/sub/s.tess` → `sub/s`), or its file
+    /// stem when it lies elsewhere. Refused when it could not name a directory of its own
+    /// (`...tess` has the stem `..`; names starting with `.` are kept for tessera's own).
+    pub fn scene_name(&self, path: &Path) -> Result<String, Failed> {
+        let file = path.file_name().map(Path::new).unwrap_or(path);
+        let below = path
+            .parent()
+            .map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p })
+            .and_then(|p| p.canonicalize().ok())
+            .zip(self.scenes_dir().canonicalize().ok())
+            .and_then(|(p, d)| p.strip_prefix(d).ok().map(Path::to_path_buf))
+            .unwrap_or_default();
+        let rel = below.join(file);
+        let rel = match rel.to_str().and_then(|r| r.strip_suffix(".tess")) {
+            Some(stem) => PathBuf::from(stem),
+            None => rel.with_extension(""),
+        };
+        let bad = |why: String| {
+            plain_error(format!(
+                "the scene `{}` cannot name its output directory: {why}; rename the file",
+                path.display()
+            ))
+        };
+        let mut parts = Vec::new();
+        for c in rel.components() {
+            let std::path::Component::Normal(c) = c else {
+                return Err(bad("its name is not a plain file name".into()));
+            };
+            let Some(c) = c.to_str() else { return Err(bad("its name is not valid UTF-8".into())) };
+            if c.is_empty() || c.starts_with('.') {
+                return Err(bad(format!("`{c}` starts with `.`, which tessera keeps for its own files")));
             }
-            out.push(Emitted { path, written: !same });
+            parts.push(c);
         }
-        Ok(out)
+        if parts.is_empty() {
+            return Err(bad("its name is empty".into()));
+        }
+        let name = parts.join("/");
+        files::normal_relative(&name).map_err(|p| bad(p.to_string()))?;
+        Ok(name)
     }
 
-    /// Writes the current outputs of a build as its goldens.
+    fn outputs_root(&self) -> PathBuf {
+        self.root.join(&self.manifest.paths.outputs)
+    }
+
+    fn golden_root(&self) -> PathBuf {
+        self.root.join(&self.manifest.paths.golden)
+    }
+
+    /// Where `check` writes the diff image of a failing output: a directory no output can be
+    /// in (scene names never start with `.`), named after the whole output file name.
+    pub fn diff_path(&self, scene: &str, output: &str) -> Result<PathBuf, Failed> {
+        files::contained(&self.outputs_root(), &format!(".diff/{scene}/{output}.diff.png"))
+            .map_err(|p| plain_error(format!("cannot place the diff image of `{scene}/{output}`: {p}")))
+    }
+
+    /// The files a build writes below `root`, each proven to lie inside it.
+    fn destinations(&self, built: &Built, root: &Path) -> Result<Vec<PathBuf>, Failed> {
+        built
+            .outputs
+            .iter()
+            .map(|(o, _)| {
+                files::contained(root, &format!("{}/{}", built.name, o.name)).map_err(|p| {
+                    let d = Diagnostic::error(format!("cannot write `{}`: {p}", o.name))
+                        .with_code("tessera::output_path")
+                        .with_label(o.span, "this output");
+                    Failed::from(Diagnostics::new(vec![d], built.scene.sources.clone()))
+                })
+            })
+            .collect()
+    }
+
+    /// Writes a build's outputs as one set: every destination checked first, every file
+    /// flushed to a temporary, then all renamed into place; on any failure no output
+    /// changes. Files that already hold their bytes are not touched.
+    pub fn emit(&self, built: &Built) -> Result<Vec<Emitted>, Failed> {
+        let root = self.outputs_root();
+        self.commit(built, &root, "outputs")
+    }
+
+    /// Writes the current outputs of a build as its goldens, as one set.
     pub fn bless(&self, built: &Built) -> Result<Vec<PathBuf>, Failed> {
-        let dir = self.golden_dir(&built.name);
-        let mut out = Vec::new();
-        for (o, bytes) in &built.outputs {
-            let path = dir.join(&o.name);
-            graph::write_atomic(&path, &bytes.0)
-                .map_err(|e| plain_error(format!("cannot write `{}`: {e}", path.display())))?;
-            out.push(path);
+        let root = self.golden_root();
+        Ok(self.commit(built, &root, "goldens")?.into_iter().map(|e| e.path).collect())
+    }
+
+    fn commit(&self, built: &Built, root: &Path, what: &str) -> Result<Vec<Emitted>, Failed> {
+        let paths = self.destinations(built, root)?;
+        let mut dirs: Vec<&Path> = paths.iter().filter_map(|p| p.parent()).collect();
+        dirs.sort();
+        dirs.dedup();
+        for d in dirs {
+            files::sweep_stale(d);
         }
-        Ok(out)
+        let mut set = files::OutputSet::new();
+        for (path, (_, bytes)) in paths.iter().zip(&built.outputs) {
+            set.add(path.clone(), bytes.0.clone());
+        }
+        let written = set.commit().map_err(|e| {
+            let mut d =
+                Diagnostic::error(format!("{e}; none of the scene's {what} was changed")).with_code("tessera::write");
+            if let Some(i) = paths.iter().position(|p| *p == e.path) {
+                d = d.with_label(built.outputs[i].0.span, "this output");
+            }
+            Failed::from(Diagnostics::new(vec![d], built.scene.sources.clone()))
+        })?;
+        Ok(written.into_iter().map(|w| Emitted { path: w.path, written: w.changed }).collect())
     }
 
     /// The keys of every stage of a scene, for `gc` and `graph`.
@@ -221,9 +303,51 @@ impl Project {
     }
 }
 
-/// A scene's name: its file stem, which names its output and golden directories.
-pub fn scene_name(path: &Path) -> String {
-    path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into())
+/// The files one command writes, across scenes: two scenes may not write one file, nor
+/// may one need as a directory what another writes as a file.
+#[derive(Default)]
+pub struct Claims {
+    files: std::collections::HashMap<PathBuf, (String, String)>,
+    dirs: std::collections::HashMap<PathBuf, (String, String)>,
+}
+
+impl Claims {
+    /// Claims the outputs of a build, or says which other scene's output is in the way.
+    pub fn claim(&mut self, built: &Built) -> Result<(), Failed> {
+        let shown: PathBuf =
+            built.scene_path.components().filter(|c| !matches!(c, std::path::Component::CurDir)).collect();
+        let owner = |o: &PlannedOutput| (shown.display().to_string(), o.name.clone());
+        let mut clash = None;
+        for (o, _) in &built.outputs {
+            let path = Path::new(&built.name).join(&o.name);
+            let other = self
+                .files
+                .get(&path)
+                .or_else(|| self.dirs.get(&path))
+                .or_else(|| path.ancestors().skip(1).find_map(|a| self.files.get(a)));
+            if let Some((scene, output)) = other {
+                clash = Some((o, format!("`{}` is also written by output \"{output}\" of `{scene}`", path.display())));
+                break;
+            }
+        }
+        if let Some((o, message)) = clash {
+            let d = Diagnostic::error(message)
+                .with_code("tessera::output_collision")
+                .with_label(o.span, "this output")
+                .with_help("two scenes with one name write one directory; rename a scene or an output");
+            return Err(Diagnostics::new(vec![d], built.scene.sources.clone()).into());
+        }
+        for (o, _) in &built.outputs {
+            let path = Path::new(&built.name).join(&o.name);
+            for a in path.ancestors().skip(1) {
+                if !a.as_os_str().is_empty() {
+                    self.dirs.entry(a.to_path_buf()).or_insert_with(|| owner(o));
+                }
+            }
+            self.files.insert(path, owner(o));
+        }
+        Ok(())
+    }
 }
 
 fn collect_scenes(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {

@@ -165,8 +165,44 @@ pub fn plan(scene: &Scene) -> Result<Plan, Vec<Diagnostic>> {
             Err(e) => errors.push(e),
         }
     }
+    errors.extend(output_collisions(&p.outputs));
     if !errors.is_empty() {
         return Err(errors);
     }
     Ok(Plan { graph: p.graph, outputs: p.outputs, blame: p.blame })
+}
+
+/// Two outputs of one scene that would be one file (`a.png` and `./a.png`), or where one
+/// needs the other as its directory (`d.png` and `d.png/x.png`).
+fn output_collisions(outputs: &[PlannedOutput]) -> Vec<Diagnostic> {
+    let mut errors = Vec::new();
+    let mut by_name: HashMap<&std::path::Path, &PlannedOutput> = HashMap::new();
+    for o in outputs {
+        by_name.entry(std::path::Path::new(&o.name)).or_insert(o);
+    }
+    for o in outputs {
+        let path = std::path::Path::new(&o.name);
+        let first = by_name[path];
+        if !std::ptr::eq(first, o) {
+            errors.push(
+                Diagnostic::error(format!("two outputs write `{}`", o.name))
+                    .with_code("tessera::output_collision")
+                    .with_label(o.span, "this output")
+                    .with_label(first.span, "is the same file as this one"),
+            );
+            continue;
+        }
+        if let Some(dir) = path.ancestors().skip(1).find_map(|a| by_name.get(a)) {
+            errors.push(
+                Diagnostic::error(format!(
+                    "`{}` is an output file, so `{}` cannot be written inside it",
+                    dir.name, o.name
+                ))
+                .with_code("tessera::output_collision")
+                .with_label(o.span, "this output")
+                .with_label(dir.span, "needs this file to be a directory"),
+            );
+        }
+    }
+    errors
 }

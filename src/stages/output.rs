@@ -11,7 +11,7 @@ use crate::synth::surface::Plane;
 
 pub static SPEC: KindSpec = KindSpec {
     name: "output",
-    doc: "Writes a result to a file under the output directory (`out/<scene>/<name>`), checked against `golden/<scene>/<name>` by `tessera check`.",
+    doc: "Writes a result to a file under the output directory (`out/<scene>/<name>`), checked against `golden/<scene>/<name>` by `tessera check`. The name is a relative path without `..`; a scene's outputs are written all at once or not at all.",
     naming: Naming::Path,
     props: &[
         PropSpec {
@@ -45,7 +45,7 @@ pub static SPEC: KindSpec = KindSpec {
             name: "tolerance",
             ty: Ty::Number(Unit::Fraction, UNIT),
             default: Default::Absent,
-            doc: "Golden check: largest per-channel difference (in [0, 1] units) a pixel may have; default from tessera.toml.",
+            doc: "Golden check: largest per-channel difference (in [0, 1] units) a pixel may have; default from tessera.toml. PNG outputs compare in whole code steps, this fraction rounded down (1/255 is one step of an 8-bit PNG, 257 of a 16-bit one). Identity views (`labels`, `labels16`, `index`) always compare exactly and refuse a tolerance.",
         },
         PropSpec {
             name: "outliers",
@@ -74,10 +74,14 @@ impl OutputFormat {
 
 #[derive(Clone, Debug)]
 pub struct PlannedOutput {
-    /// The path under the scene's output directory.
+    /// The path under the scene's output directory, normalised: two outputs are one file
+    /// exactly when their names are equal.
     pub name: String,
     pub node: NodeId,
     pub format: OutputFormat,
+    /// Its values are identities (region ids, label colours, source coordinates): the golden
+    /// check compares them exactly, whatever the tolerance.
+    pub exact: bool,
     pub tolerance: Option<f64>,
     pub outliers: f64,
     pub span: Span,
@@ -118,17 +122,21 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             .with_help("outputs are `.png` (8- or 16-bit), `.exr`, `.json` or `.svg` files"));
         }
     };
-    if d.name.contains("..") || std::path::Path::new(&d.name).is_absolute() {
-        return Err(Diagnostic::error("output names are paths inside the scene's output directory")
+    let name = crate::graph::files::normal_relative(&d.name).map_err(|problem| {
+        Diagnostic::error(format!("`{}` cannot name an output: {problem}", d.name.escape_debug()))
             .with_code("tessera::output_name")
-            .with_label(d.name_span, "no `..` or absolute paths here"));
-    }
+            .with_label(d.name_span, "here")
+            .with_help("output names are relative paths inside the scene's output directory")
+    })?;
+    let name = name.to_string_lossy().into_owned();
     let from = d.props.reference("from").expect("required");
     let src = p.decl(from);
     if src.kind == "structure" {
         let view = d.props.enumeration("view").to_string();
+        // Region ids and their colours are identities: an id off by one is a regression.
+        let exact = matches!(view.as_str(), "labels" | "labels16") || (view == "auto" && !format.is_text());
         let node = super::structure::plan_output(p, d, from, format, &view, d.props.num("edge_width"))?;
-        p.outputs.push(planned(d, node, format));
+        p.outputs.push(planned(d, &name, node, format, exact)?);
         return Ok(node);
     }
     let view = d.props.enumeration("view");
@@ -140,16 +148,18 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
                 .with_help("layers are images; their views are `seams` and `index`"));
         }
         let node = super::layer::plan_output(p, d, from, format, view)?;
-        p.outputs.push(planned(d, node, format));
+        let exact = view == "index";
+        p.outputs.push(planned(d, &name, node, format, exact)?);
         return Ok(node);
     }
+    let exact = false;
     if src.kind == "sample" && format == OutputFormat::Json {
         if let Some(query) = p.part(from, "ranking") {
             let stage = FnStage::new("output.ranking", 1, String::new(), |cx| {
                 Ok(super::library::ranking_json(&cx.input::<super::library::Ranking>(0)))
             });
             let node = p.add(format!("output {}", d.name), stage, vec![query], vec![]);
-            p.outputs.push(planned(d, node, format));
+            p.outputs.push(planned(d, &name, node, format, exact)?);
             return Ok(node);
         }
     }
@@ -199,19 +209,30 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         encode_image(&img, format)
     });
     let node = p.add(format!("output {}", d.name), stage, vec![input], vec![]);
-    p.outputs.push(planned(d, node, format));
+    p.outputs.push(planned(d, &name, node, format, exact)?);
     Ok(node)
 }
 
-fn planned(d: &Decl, node: NodeId, format: OutputFormat) -> PlannedOutput {
-    PlannedOutput {
-        name: d.name.clone(),
+fn planned(d: &Decl, name: &str, node: NodeId, format: OutputFormat, exact: bool) -> Result<PlannedOutput, Diagnostic> {
+    for prop in ["tolerance", "outliers"] {
+        if let (true, Some(span)) = (exact, d.props.span(prop)) {
+            return Err(Diagnostic::error(format!(
+                "`{name}` holds identities (region ids, labels, source positions): it is compared exactly"
+            ))
+            .with_code("tessera::output_exact")
+            .with_label(span, "a tolerance does not apply here")
+            .with_help("an id off by one is a different region; remove this property"));
+        }
+    }
+    Ok(PlannedOutput {
+        name: name.to_string(),
         node,
         format,
+        exact,
         tolerance: d.props.opt_num("tolerance"),
         outliers: d.props.num("outliers"),
         span: d.name_span,
-    }
+    })
 }
 
 /// Encodes an image output in the output's (image) format.
