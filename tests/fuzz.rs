@@ -1,0 +1,64 @@
+//! The bounded fuzz sample CI runs: a few thousand generated and mutated scenes and a few
+//! hundred generated input files, deterministic by seed, through parse → resolve → plan →
+//! build → emit in worker processes under an address-space limit and a per-case time
+//! limit (`tests/fuzzgen`). The long campaign is `examples/fuzz.rs` (docs/fuzzing.md).
+
+mod fuzzgen;
+
+use std::path::PathBuf;
+use std::process::Command;
+
+use fuzzgen::runner::{self, Config};
+
+/// Fail on any finding. Off while known findings (issue 10 items 7, 8, 12) are being fixed
+/// on other branches: the sample then reports them without failing.
+const STRICT: bool = false;
+
+const SEED: u64 = 10;
+const SCENES: u64 = 3000;
+const FILES: u64 = 300;
+
+/// Not a test: the entry point of the worker processes the sample starts (a no-op unless
+/// the parent set the job in the environment).
+#[test]
+fn fuzz_worker_entry() {
+    runner::worker_main();
+}
+
+#[test]
+fn fuzz_sample() {
+    if std::env::var_os(runner::WORKER_ENV).is_some() {
+        return;
+    }
+    let findings = std::env::var_os("TESSERA_FUZZ_FINDINGS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fuzz-findings"));
+    let _ = std::fs::remove_dir_all(&findings);
+    let config = Config {
+        seed: SEED,
+        scenes: SCENES,
+        files: FILES,
+        jobs: 2,
+        time_limit_s: 30.0,
+        mem_limit_mb: 3072,
+        findings,
+        chunk: 500,
+        threads: 1,
+        progress_s: 0.0,
+    };
+    let exe = std::env::current_exe().expect("test binary");
+    let spawn = move || {
+        let mut c = Command::new(&exe);
+        c.args(["fuzz_worker_entry", "--exact", "--nocapture", "--test-threads=1"]);
+        c
+    };
+    let summary = runner::drive(config, &spawn);
+    eprintln!("{}", summary.report());
+    assert_eq!(summary.scenes_run, SCENES, "every scene case ran");
+    assert_eq!(summary.files_run, FILES, "every file case ran");
+    // The generators must reach the stages, not only the error paths.
+    assert!(summary.built > SCENES / 10, "only {} cases built", summary.built);
+    if STRICT {
+        assert!(summary.findings.is_empty(), "fuzz findings:\n{}", summary.report());
+    }
+}
