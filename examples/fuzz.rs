@@ -17,7 +17,7 @@ use std::process::{Command, ExitCode};
 use fuzzgen::runner::{self, Config};
 
 const USAGE: &str = "usage: fuzz [--seed N] [--scenes N] [--files N] [--jobs N] [--threads N] \
-[--time-limit SECONDS] [--max-memory MB] [--findings DIR] [--chunk N]\n       fuzz --case scene-N|file-N [--seed N]   (print a case's scene text)";
+[--time-limit SECONDS] [--max-memory MB] [--findings DIR] [--chunk N]\n       fuzz --replay DIR   (run a reproducer under the same limits)\n       fuzz --case scene-N|file-N [--seed N]   (print a case's scene text)";
 
 fn main() -> ExitCode {
     if runner::worker_main() {
@@ -34,6 +34,8 @@ fn main() -> ExitCode {
         chunk: 2000,
         threads: 1,
         progress_s: 30.0,
+        replay: None,
+        minimize_crashes: true,
     };
     let mut show: Option<String> = None;
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -52,6 +54,12 @@ fn main() -> ExitCode {
             "--max-memory" => config.mem_limit_mb = num().expect("--max-memory MB"),
             "--findings" => config.findings = PathBuf::from(&value),
             "--case" => show = Some(value.clone()),
+            "--replay" => {
+                // A reproducer directory (or its `scenes` directory).
+                let dir = PathBuf::from(&value);
+                config.replay = Some(if dir.join("scenes").is_dir() { dir.join("scenes") } else { dir });
+                config.jobs = 1;
+            }
             "--diagnose" => {
                 // Tally where the first N scene and file cases stop, in-process.
                 let n = num().expect("--diagnose N");

@@ -39,12 +39,14 @@ fn fuzz_sample() {
         scenes: SCENES,
         files: FILES,
         jobs: 2,
-        time_limit_s: 30.0,
+        time_limit_s: 10.0,
         mem_limit_mb: 3072,
         findings,
         chunk: 500,
         threads: 1,
         progress_s: 0.0,
+        replay: None,
+        minimize_crashes: false,
     };
     let exe = std::env::current_exe().expect("test binary");
     let spawn = move || {
@@ -53,6 +55,7 @@ fn fuzz_sample() {
         c
     };
     let summary = runner::drive(config, &spawn);
+    // Shown with `--nocapture`; the findings directory has the reproducers.
     eprintln!("{}", summary.report());
     assert_eq!(summary.scenes_run, SCENES, "every scene case ran");
     assert_eq!(summary.files_run, FILES, "every file case ran");

@@ -178,10 +178,26 @@ pub fn install_panic_hook() {
         } else {
             "(non-string panic payload)".into()
         };
-        let loc = info.location().map(|l| format!("{}:{}", l.file(), l.line())).unwrap_or_default();
+        // Dependencies' paths from the registry's source directory on.
+        let loc = info
+            .location()
+            .map(|l| {
+                let f = l.file();
+                let f = f.find("/registry/src/").and_then(|i| f[i..].splitn(5, '/').nth(4)).unwrap_or(f);
+                format!("{f}:{}", l.line())
+            })
+            .unwrap_or_default();
         let bt = std::backtrace::Backtrace::force_capture().to_string();
-        let frames: Vec<&str> =
-            bt.lines().filter(|l| l.contains("tessera::") && !l.contains("fuzzgen")).map(str::trim).take(8).collect();
+        // The frames of code that is not the panic machinery, innermost first.
+        let machinery = ["std::", "core::", "alloc::", "rust_begin", "__rust", "<alloc::", "<core::", "<std::"];
+        let frames: Vec<&str> = bt
+            .lines()
+            .map(str::trim)
+            .filter_map(|l| l.split_once(": ").filter(|(n, _)| n.chars().all(|c| c.is_ascii_digit())))
+            .map(|(_, f)| f)
+            .filter(|f| !machinery.iter().any(|p| f.starts_with(p)) && !f.contains("install_panic_hook"))
+            .take(10)
+            .collect();
         let mut last = LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner());
         if last.is_none() {
             *last = Some((format!("{msg}\n  at {loc}\n  {}", frames.join("\n  ")), loc));
@@ -379,8 +395,10 @@ pub struct WorkerJob {
     pub time_limit_s: f64,
     pub mem_limit_mb: u64,
     pub scratch: PathBuf,
-    /// Replay one scene text (a reproducer) instead of generated cases.
-    pub replay: Option<String>,
+    /// Replay a reproducer's `scenes` directory instead of generated cases.
+    pub replay: Option<PathBuf>,
+    /// Signatures already found: their cases are not minimised again.
+    pub known: Vec<String>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -438,22 +456,20 @@ pub fn worker_main() -> bool {
         });
     }
     let generator = Generator::new(job.seed);
-    if let Some(text) = &job.replay {
-        let case = Case {
-            id: CaseId { stream: job.stream, index: job.start },
-            what: "replay".into(),
-            text: text.clone(),
-            files: generator.case(CaseId { stream: job.stream, index: job.start }).files,
-            sets: vec![],
-            build: true,
-        };
-        let id = case.id;
-        *current.lock().unwrap() = Some((id, Instant::now()));
+    if let Some(dir) = &job.replay {
+        // A reproducer directory: its scene and every file beside it.
+        let text = std::fs::read_to_string(dir.join("scene.tess")).expect("reproducer scene");
+        let mut files = Vec::new();
+        collect_files(dir, dir, &mut files);
+        let id = CaseId { stream: job.stream, index: job.start };
+        let case = Case { id, what: "replay".into(), text: text.clone(), files, sets: vec![], build: true };
+        *current.lock().unwrap_or_else(|e| e.into_inner()) = Some((id, Instant::now()));
         send(&Msg::Start(id));
-        match run_case(&ws, &case, text) {
-            Ok(_) => send(&Msg::Done { id, compiled: true, built: true, millis: 0.0 }),
+        match run_case(&ws, &case, &text) {
+            Ok(ran) => send(&Msg::Done { id, compiled: ran.compiled, built: ran.built, millis: 0.0 }),
             Err(problem) => send(&Msg::Problem { id, problem, minimized: text.clone() }),
         }
+        *current.lock().unwrap_or_else(|e| e.into_inner()) = None;
         send(&Msg::Finished);
         return true;
     }
@@ -473,7 +489,8 @@ pub fn worker_main() -> bool {
             Err(problem) => {
                 // Minimise while the watchdog still guards us, each try a few seconds at most.
                 let sig = problem.signature.clone();
-                let deadline = Instant::now() + Duration::from_secs(60);
+                let budget = if job.known.contains(&sig) { 0 } else { 60 };
+                let deadline = Instant::now() + Duration::from_secs(budget);
                 let minimized = minimize(&case.text, 300, |candidate| {
                     if Instant::now() > deadline {
                         return false;
@@ -510,6 +527,10 @@ pub struct Config {
     pub threads: usize,
     /// Print progress every this many seconds (0: never).
     pub progress_s: f64,
+    /// Run one reproducer (its `scenes` directory) in a worker instead of generated cases.
+    pub replay: Option<PathBuf>,
+    /// Minimise the scenes of crashes and hangs too (a fresh worker per try: slow).
+    pub minimize_crashes: bool,
 }
 
 #[derive(Debug, Serialize)]
@@ -595,6 +616,9 @@ pub fn drive(config: Config, spawn: &Spawn) -> Summary {
             f = e;
         }
     }
+    if config.replay.is_some() {
+        queue = vec![(Stream::Scene, 0, 1)];
+    }
     queue.reverse();
     let shared = Shared {
         summary: Mutex::new(Summary { seed: config.seed, ..Default::default() }),
@@ -665,7 +689,8 @@ fn run_chunk(shared: &Shared, spawn: &Spawn, slot: usize, stream: Stream, start:
             time_limit_s: cfg.time_limit_s,
             mem_limit_mb: cfg.mem_limit_mb,
             scratch: scratch.clone(),
-            replay: None,
+            replay: cfg.replay.clone(),
+            known: shared.summary.lock().unwrap().findings.keys().cloned().collect(),
         };
         let stderr = std::fs::File::create(&stderr_path).expect("stderr file");
         let mut child = spawn()
@@ -726,7 +751,7 @@ fn run_chunk(shared: &Shared, spawn: &Spawn, slot: usize, stream: Stream, start:
                         signature: "hang".into(),
                         message: format!("the case ran past the {:.0} s limit ({seconds:.1} s)", cfg.time_limit_s),
                     };
-                    let text = shared.generator.case(id).text;
+                    let text = minimize_crash(shared, spawn, slot, id, &problem.signature);
                     record(shared, id, problem, &text);
                     count(shared, id);
                     next = id.index + 1;
@@ -753,7 +778,7 @@ fn run_chunk(shared: &Shared, spawn: &Spawn, slot: usize, stream: Stream, start:
                 tail.lines().rev().take(12).collect::<Vec<_>>().into_iter().rev().collect::<Vec<_>>().join("\n");
             let (kind, signature) = classify(&tail, &status);
             let problem = Problem { kind, signature, message: format!("{status}\n{tail}") };
-            let text = shared.generator.case(id).text;
+            let text = minimize_crash(shared, spawn, slot, id, &problem.signature);
             record(shared, id, problem, &text);
             count(shared, id);
             next = id.index + 1;
@@ -770,6 +795,108 @@ fn run_chunk(shared: &Shared, spawn: &Spawn, slot: usize, stream: Stream, start:
     }
     let _ = std::fs::remove_dir_all(&scratch);
     let _ = std::fs::remove_file(&stderr_path);
+}
+
+/// The smallest scene (by lines) that still kills a worker the same way, found by running
+/// each candidate in a fresh worker; only for the first case of a signature.
+fn minimize_crash(shared: &Shared, spawn: &Spawn, slot: usize, id: CaseId, signature: &str) -> String {
+    let case = shared.generator.case(id);
+    let skip = !shared.config.minimize_crashes || shared.config.replay.is_some();
+    if skip || shared.summary.lock().unwrap().findings.contains_key(signature) {
+        return case.text;
+    }
+    let limit = shared.config.time_limit_s.min(10.0);
+    let deadline = Instant::now() + Duration::from_secs(180);
+    let dir = std::env::temp_dir().join(format!("tessera-fuzz-{}-{slot}-probe", std::process::id()));
+    let scratch = std::env::temp_dir().join(format!("tessera-fuzz-{}-{slot}-probe-ws", std::process::id()));
+    let stderr_path = std::env::temp_dir().join(format!("tessera-fuzz-{}-{slot}-probe.stderr", std::process::id()));
+    let min = minimize(&case.text, 60, |candidate| {
+        if Instant::now() > deadline {
+            return false;
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+        for (name, bytes) in &case.files {
+            let p = dir.join(name);
+            let _ = std::fs::create_dir_all(p.parent().unwrap());
+            let _ = std::fs::write(p, bytes);
+        }
+        let _ = std::fs::create_dir_all(&dir);
+        let _ = std::fs::write(dir.join("scene.tess"), candidate);
+        let job = WorkerJob {
+            seed: shared.config.seed,
+            stream: id.stream,
+            start: id.index,
+            end: id.index + 1,
+            time_limit_s: limit,
+            mem_limit_mb: shared.config.mem_limit_mb,
+            scratch: scratch.clone(),
+            replay: Some(dir.clone()),
+            known: Vec::new(),
+        };
+        probe(spawn, &shared.config, &job, &stderr_path).as_deref() == Some(signature)
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&scratch);
+    let _ = std::fs::remove_file(&stderr_path);
+    min
+}
+
+/// Runs one replay job; the signature of what went wrong, if anything did.
+fn probe(spawn: &Spawn, cfg: &Config, job: &WorkerJob, stderr_path: &Path) -> Option<String> {
+    let stderr = std::fs::File::create(stderr_path).ok()?;
+    let mut child = spawn()
+        .env(WORKER_ENV, serde_json::to_string(job).unwrap())
+        .env("RAYON_NUM_THREADS", cfg.threads.to_string())
+        .stdout(Stdio::piped())
+        .stderr(stderr)
+        .spawn()
+        .ok()?;
+    let out = child.stdout.take()?;
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(out).lines().map_while(Result::ok) {
+            if let Some(m) = line.strip_prefix(TAG).and_then(|m| serde_json::from_str::<Msg>(m).ok()) {
+                if tx.send(m).is_err() {
+                    break;
+                }
+            }
+        }
+    });
+    let mut started = false;
+    let mut found = None;
+    loop {
+        match rx.recv_timeout(Duration::from_secs_f64(job.time_limit_s * 2.0 + 60.0)) {
+            Ok(Msg::Start(_)) => started = true,
+            Ok(Msg::Problem { problem, .. }) => found = Some(problem.signature),
+            Ok(Msg::Hang { .. }) => found = Some("hang".to_string()),
+            Ok(Msg::Done { .. }) => started = false,
+            Ok(Msg::Finished) => {}
+            Err(mpsc::RecvTimeoutError::Timeout) => {
+                let _ = child.kill();
+            }
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        }
+    }
+    let status = child.wait().ok()?;
+    if found.is_none() && started {
+        let tail = std::fs::read_to_string(stderr_path).unwrap_or_default();
+        found = Some(classify(&tail, &status).1);
+    }
+    found
+}
+
+fn collect_files(root: &Path, dir: &Path, out: &mut Vec<(String, Vec<u8>)>) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            collect_files(root, &p, out);
+        } else if p.file_name().is_some_and(|n| n != "scene.tess") {
+            if let (Ok(rel), Ok(bytes)) = (p.strip_prefix(root), std::fs::read(&p)) {
+                out.push((rel.to_string_lossy().into_owned(), bytes));
+            }
+        }
+    }
 }
 
 fn count(shared: &Shared, id: CaseId) {
@@ -817,6 +944,20 @@ fn record(shared: &Shared, id: CaseId, problem: Problem, minimized: &str) {
         if g.cases.len() < 20 {
             g.cases.push(id.to_string());
         }
+        return;
+    }
+    if let Some(dir) = &cfg.replay {
+        s.findings.insert(
+            key.clone(),
+            FindingGroup {
+                signature: key,
+                kind: problem.kind,
+                message: problem.message,
+                count: 1,
+                cases: vec!["replay".into()],
+                reproducer: dir.clone(),
+            },
+        );
         return;
     }
     let dir = cfg.findings.join(format!("{}-{}", slug(&key), id));

@@ -171,7 +171,7 @@ pub fn generate(rng: &mut Rng) -> Generated {
     if rng.chance(0.01) {
         // A line past miette's 65 535 columns with an error at its end.
         out.push_str(&format!("# {}\n", "x".repeat(70_000)));
-        out.push_str(&format!("map far {{ from = constant({}1) }}\n", " ".repeat(70_000)));
+        out.push_str(&format!("map far {{ from = constant({}nowhere_far) }}\n", " ".repeat(70_000)));
     }
     if rng.chance(0.01) {
         out.push_str("map déjà { from = constant(1) }\n");
