@@ -16,6 +16,9 @@ use std::process::{Command, ExitCode};
 
 use fuzzgen::runner::{self, Config};
 
+#[global_allocator]
+static ALLOCATOR: runner::Allocator = runner::Allocator;
+
 const USAGE: &str = "usage: fuzz [--seed N] [--scenes N] [--files N] [--jobs N] [--threads N] \
 [--time-limit SECONDS] [--max-memory MB] [--findings DIR] [--chunk N]\n       fuzz --replay DIR   (run a reproducer under the same limits)\n       fuzz --case scene-N|file-N [--seed N]   (print a case's scene text)";
 
@@ -78,7 +81,7 @@ fn main() -> ExitCode {
                     }
                 }
                 let mut v: Vec<_> = tally.into_iter().collect();
-                v.sort_by(|a, b| b.1.cmp(&a.1));
+                v.sort_by_key(|b| std::cmp::Reverse(b.1));
                 for (d, n) in v.iter().take(60) {
                     println!("{n:6} {d}");
                 }

@@ -10,6 +10,9 @@ use std::process::Command;
 
 use fuzzgen::runner::{self, Config};
 
+#[global_allocator]
+static ALLOCATOR: runner::Allocator = runner::Allocator;
+
 /// Fail on any finding. Off while known findings (issue 10 items 7, 8, 12) are being fixed
 /// on other branches: the sample then reports them without failing.
 const STRICT: bool = false;

@@ -445,7 +445,11 @@ pub fn structure_json(rng: &mut Rng) -> (String, Vec<u8>) {
 
 pub fn label_image(rng: &mut Rng) -> (String, Vec<u8>) {
     let (w, h) = (1 + rng.below(64), 1 + rng.below(64));
-    let (img, what) = match rng.below(5) {
+    // Degenerate images (a region per pixel, noise) are kept small and rare: they are the
+    // slow path of region analysis, and a few cases find it.
+    let degenerate = rng.chance(0.1);
+    let (w, h) = if degenerate { (1 + w / 4, 1 + h / 4) } else { (w, h) };
+    let (img, what) = match if degenerate { rng.below(3) } else { 3 } {
         0 => {
             // Every pixel its own region.
             let img = Image::from_fn(w, h, 3, |x, y, c| [x as f32 / 255.0, y as f32 / 255.0, 0.5][c]);

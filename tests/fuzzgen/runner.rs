@@ -412,8 +412,11 @@ enum Msg {
 
 fn send(m: &Msg) {
     let mut out = std::io::stdout().lock();
-    let _ = writeln!(out, "{TAG}{}", serde_json::to_string(m).expect("message"));
-    let _ = out.flush();
+    let sent = writeln!(out, "{TAG}{}", serde_json::to_string(m).expect("message")).and_then(|_| out.flush());
+    if sent.is_err() {
+        // The parent is gone: nobody would hear of what this worker finds.
+        std::process::exit(0);
+    }
 }
 
 #[cfg(unix)]
@@ -908,7 +911,17 @@ fn count(shared: &Shared, id: CaseId) {
 }
 
 fn classify(tail: &str, status: &std::process::ExitStatus) -> (String, String) {
-    if tail.contains("memory allocation of") {
+    if let Some(i) = tail.find(ALLOC_FAIL) {
+        // The innermost tessera frame the allocator's hook printed names the place.
+        let frame = tail[i..]
+            .lines()
+            .skip(1)
+            .find(|l| l.contains("tessera::"))
+            .unwrap_or("")
+            .trim()
+            .trim_end_matches("::{{closure}}");
+        ("alloc".into(), format!("allocation past the budget in {frame}"))
+    } else if tail.contains("memory allocation of") {
         ("alloc".into(), "allocation past the address-space budget".into())
     } else if tail.contains("has overflowed its stack") {
         ("stack-overflow".into(), "stack overflow".into())
@@ -923,6 +936,65 @@ fn classify(tail: &str, status: &std::process::ExitStatus) -> (String, String) {
             }
         }
         ("crash".into(), format!("worker exited: {status}"))
+    }
+}
+
+const ALLOC_FAIL: &str = "@@FUZZ-ALLOC-FAILED";
+
+/// The system allocator, printing where an allocation failed before Rust aborts (the
+/// allocation error hook is unstable), so allocations past the budget are told apart.
+pub struct Allocator;
+
+thread_local! {
+    static IN_HOOK: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+fn allocation_failed(size: usize) {
+    if IN_HOOK.with(|h| h.replace(true)) {
+        return;
+    }
+    let bt = std::backtrace::Backtrace::force_capture().to_string();
+    let frames: Vec<&str> = bt
+        .lines()
+        .map(str::trim)
+        .filter_map(|l| l.split_once(": ").filter(|(n, _)| n.chars().all(|c| c.is_ascii_digit())))
+        .map(|(_, f)| f)
+        .filter(|f| f.contains("tessera::") && !f.contains("fuzzgen"))
+        .take(8)
+        .collect();
+    eprintln!("{ALLOC_FAIL} {size} bytes\n{}", frames.join("\n"));
+    IN_HOOK.with(|h| h.set(false));
+}
+
+// SAFETY: every call forwards to the system allocator with the same arguments; the hook
+// only runs after a failed allocation and before the caller sees the null pointer.
+unsafe impl std::alloc::GlobalAlloc for Allocator {
+    unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
+        let p = unsafe { std::alloc::System.alloc(layout) };
+        if p.is_null() {
+            allocation_failed(layout.size());
+        }
+        p
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: std::alloc::Layout) -> *mut u8 {
+        let p = unsafe { std::alloc::System.alloc_zeroed(layout) };
+        if p.is_null() {
+            allocation_failed(layout.size());
+        }
+        p
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: std::alloc::Layout, new_size: usize) -> *mut u8 {
+        let p = unsafe { std::alloc::System.realloc(ptr, layout, new_size) };
+        if p.is_null() {
+            allocation_failed(new_size);
+        }
+        p
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: std::alloc::Layout) {
+        unsafe { std::alloc::System.dealloc(ptr, layout) }
     }
 }
 
