@@ -200,7 +200,19 @@ pub fn install_panic_hook() {
             .collect();
         let mut last = LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner());
         if last.is_none() {
-            *last = Some((format!("{msg}\n  at {loc}\n  {}", frames.join("\n  ")), loc));
+            // A panic inside std or a dependency is told apart by the tessera frame below it.
+            let site = if loc.starts_with("src/") {
+                loc.clone()
+            } else {
+                let via =
+                    frames.iter().find(|f| f.starts_with("tessera::")).map(|f| f.trim_end_matches("::{{closure}}"));
+                let short = loc.rsplit("/src/").next().unwrap_or(&loc).to_string();
+                match via {
+                    Some(v) => format!("{short} in {v}"),
+                    None => loc.clone(),
+                }
+            };
+            *last = Some((format!("{msg}\n  at {loc}\n  {}", frames.join("\n  ")), site));
         }
     }));
 }
@@ -435,6 +447,37 @@ pub fn limit_memory(mb: u64) {
 #[cfg(not(unix))]
 fn limit_memory(_mb: u64) {}
 
+/// A case's wall-clock time limit, as a multiple of its CPU time limit.
+const WALL_FACTOR: f64 = 20.0;
+
+#[derive(Clone, Copy)]
+struct Started {
+    wall: Instant,
+    cpu: f64,
+}
+
+impl Started {
+    fn now() -> Started {
+        Started { wall: Instant::now(), cpu: cpu_seconds() }
+    }
+}
+
+/// CPU time of this process (all threads), in seconds.
+#[cfg(unix)]
+fn cpu_seconds() -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes only the struct we pass.
+    unsafe {
+        libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts);
+    }
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
+#[cfg(not(unix))]
+fn cpu_seconds() -> f64 {
+    0.0
+}
+
 /// The worker's main: runs when `WORKER_ENV` holds a job. Returns false when it does not.
 pub fn worker_main() -> bool {
     let Ok(job) = std::env::var(WORKER_ENV) else { return false };
@@ -442,7 +485,7 @@ pub fn worker_main() -> bool {
     limit_memory(job.mem_limit_mb);
     install_panic_hook();
     let ws = Workspace::create(job.scratch.clone());
-    let current: Arc<Mutex<Option<(CaseId, Instant)>>> = Arc::new(Mutex::new(None));
+    let current: Arc<Mutex<Option<(CaseId, Started)>>> = Arc::new(Mutex::new(None));
     {
         let current = current.clone();
         let limit = job.time_limit_s;
@@ -450,9 +493,11 @@ pub fn worker_main() -> bool {
             std::thread::sleep(Duration::from_millis(100));
             let c = *current.lock().unwrap_or_else(|e| e.into_inner());
             if let Some((id, t)) = c {
-                let s = t.elapsed().as_secs_f64();
-                if s > limit {
-                    send(&Msg::Hang { id, seconds: s });
+                // CPU time, so that a loaded machine does not make slow cases hangs; the
+                // wall clock still catches a case that waits forever.
+                let (cpu, wall) = (cpu_seconds() - t.cpu, t.wall.elapsed().as_secs_f64());
+                if cpu > limit || wall > limit * WALL_FACTOR {
+                    send(&Msg::Hang { id, seconds: cpu });
                     std::process::exit(124);
                 }
             }
@@ -466,7 +511,7 @@ pub fn worker_main() -> bool {
         collect_files(dir, dir, &mut files);
         let id = CaseId { stream: job.stream, index: job.start };
         let case = Case { id, what: "replay".into(), text: text.clone(), files, sets: vec![], build: true };
-        *current.lock().unwrap_or_else(|e| e.into_inner()) = Some((id, Instant::now()));
+        *current.lock().unwrap_or_else(|e| e.into_inner()) = Some((id, Started::now()));
         send(&Msg::Start(id));
         match run_case(&ws, &case, &text) {
             Ok(ran) => send(&Msg::Done { id, compiled: ran.compiled, built: ran.built, millis: 0.0 }),
@@ -480,7 +525,7 @@ pub fn worker_main() -> bool {
         let id = CaseId { stream: job.stream, index };
         let case = generator.case(id);
         let t = Instant::now();
-        *current.lock().unwrap_or_else(|e| e.into_inner()) = Some((id, t));
+        *current.lock().unwrap_or_else(|e| e.into_inner()) = Some((id, Started::now()));
         send(&Msg::Start(id));
         match run_case(&ws, &case, &case.text) {
             Ok(ran) => send(&Msg::Done {
@@ -498,7 +543,7 @@ pub fn worker_main() -> bool {
                     if Instant::now() > deadline {
                         return false;
                     }
-                    *current.lock().unwrap_or_else(|e| e.into_inner()) = Some((id, Instant::now()));
+                    *current.lock().unwrap_or_else(|e| e.into_inner()) = Some((id, Started::now()));
                     matches!(run_case(&ws, &case, candidate), Err(p) if p.signature == sig)
                 });
                 send(&Msg::Problem { id, problem, minimized });
@@ -721,7 +766,7 @@ fn run_chunk(shared: &Shared, spawn: &Spawn, slot: usize, stream: Stream, start:
         let mut finished = false;
         let mut reported = false;
         // The worker's own watchdog fires at the time limit; this one is a backstop.
-        let backstop = Duration::from_secs_f64(cfg.time_limit_s * 2.0 + 120.0);
+        let backstop = Duration::from_secs_f64(cfg.time_limit_s * WALL_FACTOR + 120.0);
         loop {
             match rx.recv_timeout(backstop) {
                 Ok(Msg::Start(id)) => current = Some(id),
@@ -752,7 +797,11 @@ fn run_chunk(shared: &Shared, spawn: &Spawn, slot: usize, stream: Stream, start:
                     let problem = Problem {
                         kind: "hang".into(),
                         signature: "hang".into(),
-                        message: format!("the case ran past the {:.0} s limit ({seconds:.1} s)", cfg.time_limit_s),
+                        message: format!(
+                            "the case ran past the limit of {:.0} s of CPU time ({seconds:.1} s) or {:.0} s of wall-clock time",
+                            cfg.time_limit_s,
+                            cfg.time_limit_s * WALL_FACTOR
+                        ),
                     };
                     let text = minimize_crash(shared, spawn, slot, id, &problem.signature);
                     record(shared, id, problem, &text);
@@ -868,7 +917,7 @@ fn probe(spawn: &Spawn, cfg: &Config, job: &WorkerJob, stderr_path: &Path) -> Op
     let mut started = false;
     let mut found = None;
     loop {
-        match rx.recv_timeout(Duration::from_secs_f64(job.time_limit_s * 2.0 + 60.0)) {
+        match rx.recv_timeout(Duration::from_secs_f64(job.time_limit_s * WALL_FACTOR + 60.0)) {
             Ok(Msg::Start(_)) => started = true,
             Ok(Msg::Problem { problem, .. }) => found = Some(problem.signature),
             Ok(Msg::Hang { .. }) => found = Some("hang".to_string()),
