@@ -28,6 +28,59 @@ fn fuzz_worker_entry() {
     runner::worker_main();
 }
 
+/// The harness itself: each way a case can go wrong becomes a finding of its kind.
+#[test]
+fn fuzz_harness_catches_every_kind_of_failure() {
+    if std::env::var_os(runner::WORKER_ENV).is_some() {
+        return;
+    }
+    let exe = std::env::current_exe().expect("test binary");
+    let spawn = move || {
+        let mut c = Command::new(&exe);
+        c.args(["fuzz_worker_entry", "--exact", "--nocapture", "--test-threads=1"]).env(runner::SELFTEST_ENV, "1");
+        c
+    };
+    let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fuzz-selftest");
+    for (kind, expected) in [
+        ("panic", "panic"),
+        ("abort", "crash"),
+        ("loop", "hang"),
+        ("alloc", "alloc"),
+        ("stack", "stack-overflow"),
+        ("none", ""),
+    ] {
+        let dir = base.join(kind);
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("scenes")).unwrap();
+        std::fs::write(
+            dir.join("scenes/scene.tess"),
+            format!("# selftest: {kind}\nmap m {{\n  from = constant(1)\n}}\n"),
+        )
+        .unwrap();
+        let config = Config {
+            seed: 0,
+            scenes: 1,
+            files: 0,
+            jobs: 1,
+            time_limit_s: 1.0,
+            mem_limit_mb: 1024,
+            findings: dir.join("findings"),
+            chunk: 1,
+            threads: 1,
+            progress_s: 0.0,
+            replay: Some(dir.join("scenes")),
+            minimize_crashes: false,
+        };
+        let summary = runner::drive(config, &spawn);
+        let kinds: Vec<&str> = summary.findings.values().map(|g| g.kind.as_str()).collect();
+        if expected.is_empty() {
+            assert!(kinds.is_empty(), "{kind}: {}", summary.report());
+        } else {
+            assert_eq!(kinds, [expected], "{kind}: {}", summary.report());
+        }
+    }
+}
+
 #[test]
 fn fuzz_sample() {
     if std::env::var_os(runner::WORKER_ENV).is_some() {

@@ -266,6 +266,9 @@ fn safe_output_name(name: &str) -> bool {
 /// The pipeline: format, compile, build, render the diagnostics or emit, then build again
 /// from the cache and compare.
 fn pipeline(ws: &Workspace, case: &Case, text: &str) -> Result<Ran, Problem> {
+    if std::env::var_os(SELFTEST_ENV).is_some() {
+        selftest(text);
+    }
     let _ = tessera::lang::fmt::format_source(text);
     let mut ran = Ran::default();
     let mut project = tessera::project::Project::open(&ws.root).map_err(|f| Problem {
@@ -339,6 +342,39 @@ pub fn first_diagnostic(ws: &Workspace, case: &Case) -> String {
     };
     clean_case(ws, &written);
     r
+}
+
+/// Set by the harness's own tests: a scene holding `# selftest: KIND` then misbehaves
+/// that way, so the tests can check each kind of failure is caught and classified.
+pub const SELFTEST_ENV: &str = "TESSERA_FUZZ_SELFTEST";
+
+#[inline(never)]
+fn recurse(n: u64) -> u64 {
+    let pad = std::hint::black_box([n; 64]);
+    if n == 0 {
+        0
+    } else {
+        recurse(n - 1) + pad[3]
+    }
+}
+
+fn selftest(text: &str) {
+    let Some(kind) = text.split("# selftest: ").nth(1).and_then(|t| t.split_whitespace().next()) else { return };
+    match kind {
+        "panic" => panic!("selftest panic"),
+        "abort" => std::process::abort(),
+        "loop" => loop {
+            std::hint::black_box(0u64);
+        },
+        "alloc" => {
+            let v: Vec<u8> = Vec::with_capacity(1 << 40);
+            std::hint::black_box(v);
+        }
+        "stack" => {
+            std::hint::black_box(recurse(u64::MAX));
+        }
+        _ => {}
+    }
 }
 
 /// Runs one case in-process; a panic anywhere (the pipeline or a rayon task) is a problem.
@@ -753,7 +789,7 @@ fn run_chunk(shared: &Shared, spawn: &Spawn, slot: usize, stream: Stream, start:
         let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || {
             for line in BufReader::new(out).lines().map_while(Result::ok) {
-                if let Some(m) = line.strip_prefix(TAG) {
+                if let Some(m) = line.find(TAG).map(|i| &line[i + TAG.len()..]) {
                     if let Ok(m) = serde_json::from_str::<Msg>(m) {
                         if tx.send(m).is_err() {
                             break;
@@ -907,7 +943,9 @@ fn probe(spawn: &Spawn, cfg: &Config, job: &WorkerJob, stderr_path: &Path) -> Op
     let (tx, rx) = mpsc::channel();
     std::thread::spawn(move || {
         for line in BufReader::new(out).lines().map_while(Result::ok) {
-            if let Some(m) = line.strip_prefix(TAG).and_then(|m| serde_json::from_str::<Msg>(m).ok()) {
+            if let Some(m) =
+                line.find(TAG).map(|i| &line[i + TAG.len()..]).and_then(|m| serde_json::from_str::<Msg>(m).ok())
+            {
                 if tx.send(m).is_err() {
                     break;
                 }
