@@ -14,7 +14,8 @@ use fuzzgen::runner::{self, Config};
 static ALLOCATOR: runner::Allocator = runner::Allocator;
 
 /// Fail on any finding. Off while known findings (issue 10 items 7, 8, 12) are being fixed
-/// on other branches: the sample then reports them without failing.
+/// on other branches: the sample then reports them without failing (`TESSERA_FUZZ_STRICT=1`
+/// makes one run strict).
 const STRICT: bool = false;
 
 const SEED: u64 = 10;
@@ -117,7 +118,7 @@ fn fuzz_sample() {
     assert_eq!(summary.files_run, FILES, "every file case ran");
     // The generators must reach the stages, not only the error paths.
     assert!(summary.built > SCENES / 10, "only {} cases built", summary.built);
-    if STRICT {
+    if STRICT || std::env::var_os("TESSERA_FUZZ_STRICT").is_some() {
         assert!(summary.findings.is_empty(), "fuzz findings:\n{}", summary.report());
     }
 }
