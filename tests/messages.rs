@@ -252,3 +252,17 @@ mod fmt_files {
         assert_eq!(std::fs::metadata(&path).unwrap().permissions().mode() & 0o777, 0o640);
     }
 }
+
+#[test]
+fn a_sample_with_only_a_structure_is_not_an_image() {
+    // Found by the fuzz campaign: each of these panicked in the planner ("wrong artifact type").
+    let structure = std::fs::read(common::repo().join("samples/standins/wall_random.json")).expect("structure");
+    for (scene, at) in [
+        ("sample s {\n  structure = \"s.json\"\n}\n\noutput \"o.png\" {\n  from = s\n}\n", "6:10"),
+        ("sample s {\n  structure = \"s.json\"\n}\n\nlayer q {\n  quilt = s\n  size = 32 x 32\n}\n\noutput \"o.png\" {\n  from = q\n}\n", "6:11"),
+    ] {
+        let stderr = failed_build("structure-only sample", scene, &[("s.json", &structure)]);
+        assert!(stderr.contains("holds only a structure file, not an image"), "{stderr}");
+        assert_eq!(location(&stderr), format!("scene.tess:{at}"), "{stderr}");
+    }
+}

@@ -97,29 +97,29 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnos
             .with_label(props.span(have).unwrap_or(d.name_span), "here")
             .with_help("`mix = SAMPLE` names the second sample and `density = MAP` how much of it to take"));
     }
-    let mut inputs = vec![p.result(sample)];
+    let mut inputs = vec![p.value(sample, props.span("quilt").unwrap_or(d.name_span))?];
     let mut wiring = Wiring::default();
     let wire = |slot: &mut Option<usize>, node: NodeId, inputs: &mut Vec<NodeId>| {
         *slot = Some(inputs.len());
         inputs.push(node);
     };
     if let Some(s) = props.reference("mix") {
-        wire(&mut wiring.mix, p.result(s), &mut inputs);
+        wire(&mut wiring.mix, p.value(s, props.span("mix").unwrap_or(d.name_span))?, &mut inputs);
     }
     if let Some(s) = props.reference("on") {
-        wire(&mut wiring.surface, p.result(s), &mut inputs);
+        wire(&mut wiring.surface, p.value(s, props.span("on").unwrap_or(d.name_span))?, &mut inputs);
     }
     if let Some(s) = props.reference("orientation") {
-        wire(&mut wiring.orientation, p.result(s), &mut inputs);
+        wire(&mut wiring.orientation, p.value(s, props.span("orientation").unwrap_or(d.name_span))?, &mut inputs);
     }
     if let Some(s) = props.reference("density") {
-        wire(&mut wiring.density, p.result(s), &mut inputs);
+        wire(&mut wiring.density, p.value(s, props.span("density").unwrap_or(d.name_span))?, &mut inputs);
     }
     if let Some(s) = props.reference("guide") {
-        wire(&mut wiring.guide, p.result(s), &mut inputs);
+        wire(&mut wiring.guide, p.value(s, props.span("guide").unwrap_or(d.name_span))?, &mut inputs);
     }
     if let Some(s) = props.reference("guide_weight") {
-        wire(&mut wiring.guide_weight, p.result(s), &mut inputs);
+        wire(&mut wiring.guide_weight, p.value(s, props.span("guide_weight").unwrap_or(d.name_span))?, &mut inputs);
     }
     let mut params = QuiltParams::new(w, h, block, p.seed(d, "layer.quilt"));
     params.overlap = overlap;
@@ -319,7 +319,8 @@ fn plan_blend(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             .with_label(props.span("threshold").unwrap_or(d.name_span), "remove this")
             .with_help("with more sources the mask value v picks source round(v·(n − 1))"));
     }
-    let mut inputs: Vec<NodeId> = sources.iter().map(|s| p.result(s)).collect();
+    let at = props.span("blend").unwrap_or(d.name_span);
+    let mut inputs: Vec<NodeId> = sources.iter().map(|s| p.value(s, at)).collect::<Result<_, _>>()?;
     let has_mask = props.reference("mask").is_some();
     if let Some(mk) = props.reference("mask") {
         inputs.push(p.result(mk));

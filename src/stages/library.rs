@@ -215,7 +215,12 @@ pub fn plan_similar(p: &mut Planner, d: &Decl, call: &Call) -> Result<(NodeId, V
         };
         lib::features(&encoded, &params).map_err(|e| StageError::new(e.to_string()).at_prop("from"))
     });
-    let target = p.add(format!("sample {} (features of {to})", d.name), stage, vec![p.result(&to)], vec![]);
+    let target = p.add(
+        format!("sample {} (features of {to})", d.name),
+        stage,
+        vec![p.value(&to, a.span("to").unwrap_or(d.name_span))?],
+        vec![],
+    );
 
     let mut axes = Vec::new();
     if a.bool("colour") {

@@ -117,6 +117,19 @@ impl Planner<'_> {
         self.results[name]
     }
 
+    /// The result of `name` where a value (an image, a map, a plane) is needed, `at` the
+    /// span that named it: a sample that holds only a structure file has none.
+    pub fn value(&self, name: &str, at: Span) -> Result<NodeId, Diagnostic> {
+        let d = self.decl(name);
+        if d.kind == "sample" && d.props.get("image").is_none() && d.props.get("from").is_none() {
+            return Err(Diagnostic::error(format!("sample `{name}` holds only a structure file, not an image"))
+                .with_code("tessera::sample_image")
+                .with_label(at, "an image is needed here")
+                .with_help("give the sample an `image`, or use it as a structure's `from`"));
+        }
+        Ok(self.result(name))
+    }
+
     pub fn decl(&self, name: &str) -> &Decl {
         self.scene.decl(name).expect("resolved reference")
     }

@@ -184,7 +184,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         "surface" => View::Plane,
         _ => View::Data,
     };
-    let input = p.result(from);
+    let input = p.value(from, d.props.span("from").unwrap_or(d.name_span))?;
     let space = if src.kind == "layer" { super::layer::color_space(p, from) } else { "" };
     let params = serde_json::json!({
         "format": format!("{format:?}"), "source": src.kind, "color": src.props.get("color"), "space": space
