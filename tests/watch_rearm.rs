@@ -309,3 +309,57 @@ output "near.json" { from = near }
     std::fs::remove_file(p.path("tex/b.png")).expect("rm");
     until_nearest("c.png");
 }
+
+#[test]
+fn a_steady_stream_of_unrelated_events_does_not_hold_back_a_rebuild() {
+    let p = Project::new(&[("scene.tess", &constant_scene(0.25))]);
+    let w = Watch::start(&p, "scene.tess");
+    w.until_value(&p, "out/scene/a.png", 0.25);
+    // Another program writing a log next to the scene, every 2 ms: each write is an event
+    // in a watched directory, none about a followed file.
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let (s, log) = (stop.clone(), p.path("noise.log"));
+    let noisy = std::thread::spawn(move || {
+        use std::io::Write;
+        let mut f = std::fs::File::create(log).expect("log");
+        while !s.load(std::sync::atomic::Ordering::SeqCst) {
+            let _ = writeln!(f, "noise");
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    });
+    p.write("scene.tess", &constant_scene(0.5));
+    let took = w.until_value(&p, "out/scene/a.png", 0.5);
+    stop.store(true, std::sync::atomic::Ordering::SeqCst);
+    noisy.join().expect("noise");
+    report("edit amid unrelated events", took);
+}
+
+/// Directories the user may not read cannot be watched (inotify needs read access); the
+/// files in them are polled instead of the watch stopping. Privileged users read every
+/// directory, so there the case cannot arise and the test has nothing to show.
+#[cfg(unix)]
+#[test]
+fn an_input_in_a_directory_that_cannot_be_watched_is_polled() {
+    use std::os::unix::fs::PermissionsExt;
+    let p = Project::new(&[(
+        "scene.tess",
+        "map a {\n  from = image(\"locked/in.png\")\n  size = 8 x 8\n}\noutput \"a.png\" { from = a }\n",
+    )]);
+    p.write_bytes("locked/in.png", &png(0.2));
+    let locked = p.path("locked");
+    let mode = |m: u32| std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(m)).expect("chmod");
+    mode(0o311); // enter and write, not list
+    if std::fs::read_dir(&locked).is_ok() {
+        mode(0o755);
+        eprintln!("skipped: this user reads every directory");
+        return;
+    }
+    let w = Watch::start(&p, "scene.tess");
+    w.until("cannot watch");
+    w.until_value(&p, "out/scene/a.png", 0.2);
+    std::fs::write(locked.join("in.png"), png(0.7)).expect("edit");
+    let took = w.until_value(&p, "out/scene/a.png", 0.7);
+    report("edit in an unwatchable directory (polled)", took);
+    drop(w);
+    mode(0o755);
+}

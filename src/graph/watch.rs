@@ -24,7 +24,7 @@ use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::time::{Duration, Instant, SystemTime};
 
 use notify::event::{EventKind, ModifyKind};
-use notify::{RecommendedWatcher, RecursiveMode, Watcher as _};
+use notify::RecursiveMode;
 
 /// How often the files no watch covers are looked at (and their watches tried again).
 const POLL: Duration = Duration::from_millis(500);
@@ -46,6 +46,25 @@ fn stamp(p: &Path) -> Stamp {
     let id = 0;
     Some((m.len(), m.modified().ok(), id))
 }
+
+/// What the watcher needs of a notification backend (a trait so that tests can stand in
+/// one that fails the way real ones do: no permission, the limit on watches).
+trait Backend: Send {
+    fn watch(&mut self, dir: &Path) -> notify::Result<()>;
+    fn unwatch(&mut self, dir: &Path);
+}
+
+impl<W: notify::Watcher + Send> Backend for W {
+    fn watch(&mut self, dir: &Path) -> notify::Result<()> {
+        notify::Watcher::watch(self, dir, RecursiveMode::NonRecursive)
+    }
+    fn unwatch(&mut self, dir: &Path) {
+        // Gone already (the backend drops watches of removed directories): nothing to do.
+        let _ = notify::Watcher::unwatch(self, dir);
+    }
+}
+
+type Events = notify::Result<notify::Event>;
 
 /// How to judge a followed path whose covering directory was armed only now.
 #[derive(Clone, Copy)]
@@ -73,9 +92,9 @@ impl Check {
 
 pub struct Watcher {
     /// `None` when the system gave no watching backend: everything is polled.
-    inner: Option<RecommendedWatcher>,
-    rx: Receiver<notify::Result<notify::Event>>,
-    keep: Option<Sender<notify::Result<notify::Event>>>,
+    inner: Option<Box<dyn Backend>>,
+    rx: Receiver<Events>,
+    keep: Option<Sender<Events>>,
     /// The followed paths (files, or directories whose entries count).
     files: BTreeSet<PathBuf>,
     /// Every proper ancestor of a followed path: an event on one of these may move a path.
@@ -95,12 +114,17 @@ pub struct Watcher {
 impl Watcher {
     /// A watcher following nothing yet. Without a backend it polls, with a warning.
     pub fn new() -> Self {
-        let (tx, mut rx) = channel();
+        let (tx, rx) = channel();
+        let backend = notify::recommended_watcher(move |ev| {
+            let _ = tx.send(ev);
+        });
+        Self::with_backend(rx, backend.map(|w| Box::new(w) as Box<dyn Backend>))
+    }
+
+    fn with_backend(mut rx: Receiver<Events>, backend: notify::Result<Box<dyn Backend>>) -> Self {
         let mut warnings = Vec::new();
         let mut keep = None;
-        let inner = match notify::recommended_watcher(move |ev| {
-            let _ = tx.send(ev);
-        }) {
+        let inner = match backend {
             Ok(w) => Some(w),
             Err(e) => {
                 warnings
@@ -155,9 +179,10 @@ impl Watcher {
         let mut last = (!changed.is_empty()).then(Instant::now);
         loop {
             let polling = self.inner.is_none() || !self.polled.is_empty() || !self.unarmed.is_empty();
-            let timeout = match last {
-                Some(t) => Some((t + quiet).saturating_duration_since(Instant::now())),
-                None => polling.then_some(POLL),
+            // (A quiet time too long to add to an instant is a wait for ever.)
+            let timeout = match last.map(|t| t.checked_add(quiet)) {
+                Some(Some(end)) => Some(end.saturating_duration_since(Instant::now())),
+                Some(None) | None => polling.then_some(POLL),
             };
             let got = match timeout {
                 Some(t) => self.rx.recv_timeout(t),
@@ -195,7 +220,7 @@ impl Watcher {
         }
     }
 
-    fn collect(&mut self, ev: notify::Result<notify::Event>, changed: &mut BTreeSet<PathBuf>) {
+    fn collect(&mut self, ev: Events, changed: &mut BTreeSet<PathBuf>) {
         let ev = match ev {
             Ok(ev) if !ev.need_rescan() => ev,
             // Events were lost (or the backend failed): anything may have happened.
@@ -258,7 +283,7 @@ impl Watcher {
         for d in force {
             if self.armed.remove(d) {
                 if let Some(w) = &mut self.inner {
-                    let _ = w.unwatch(d);
+                    w.unwatch(d);
                 }
             }
         }
@@ -267,7 +292,7 @@ impl Watcher {
             for d in self.armed.iter().filter(|d| !want.contains(*d)).cloned().collect::<Vec<_>>() {
                 self.armed.remove(&d);
                 if let Some(w) = &mut self.inner {
-                    let _ = w.unwatch(&d);
+                    w.unwatch(&d);
                 }
             }
             let mut newly = HashSet::new();
@@ -275,7 +300,7 @@ impl Watcher {
             let missing: Vec<PathBuf> = want.iter().filter(|d| !self.armed.contains(*d)).cloned().collect();
             for d in &missing {
                 let placed = match &mut self.inner {
-                    Some(w) => w.watch(d.as_path(), RecursiveMode::NonRecursive).map_err(describe),
+                    Some(w) => w.watch(d).map_err(describe),
                     None => Err(String::new()),
                 };
                 match placed {
@@ -375,4 +400,136 @@ fn absolute(p: &Path) -> PathBuf {
         }
     }
     p
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+
+    /// A backend that refuses directories the way the system does when `refuse` says so.
+    struct Refusing {
+        refuse: Box<dyn Fn(&Path) -> Option<notify::Error> + Send>,
+        watched: Arc<std::sync::Mutex<Vec<PathBuf>>>,
+    }
+
+    impl Backend for Refusing {
+        fn watch(&mut self, dir: &Path) -> notify::Result<()> {
+            match (self.refuse)(dir) {
+                Some(e) => Err(e),
+                None => {
+                    self.watched.lock().unwrap().push(dir.to_path_buf());
+                    Ok(())
+                }
+            }
+        }
+        fn unwatch(&mut self, _: &Path) {}
+    }
+
+    fn refusing(
+        refuse: impl Fn(&Path) -> Option<notify::Error> + Send + 'static,
+    ) -> (Box<dyn Backend>, Arc<std::sync::Mutex<Vec<PathBuf>>>) {
+        let watched = Arc::new(std::sync::Mutex::new(Vec::new()));
+        (Box::new(Refusing { refuse: Box::new(refuse), watched: watched.clone() }), watched)
+    }
+
+    #[test]
+    fn the_limit_on_watches_falls_back_to_polling() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("a.txt");
+        std::fs::write(&f, "one").unwrap();
+        let (_tx, rx) = channel();
+        let (backend, _) = refusing(|_| Some(notify::Error::new(notify::ErrorKind::MaxFilesWatch)));
+        let mut w = Watcher::with_backend(rx, Ok(backend));
+        w.follow([f.clone()], None);
+        let warnings = w.take_warnings().join("\n");
+        assert!(warnings.contains("limit on file watches"), "{warnings}");
+        std::fs::write(&f, "two, longer").unwrap();
+        assert!(w.wait(Duration::from_millis(10)).contains(&absolute(&f)));
+    }
+
+    #[test]
+    fn a_directory_refused_is_polled_and_watched_once_it_can_be() {
+        let dir = tempfile::tempdir().unwrap();
+        let sub = dir.path().join("locked");
+        std::fs::create_dir(&sub).unwrap();
+        let f = sub.join("a.txt");
+        std::fs::write(&f, "one").unwrap();
+        let sub = absolute(&sub.join("x")).parent().unwrap().to_path_buf();
+        let refused = Arc::new(AtomicBool::new(true));
+        let (r, s) = (refused.clone(), sub.clone());
+        let (backend, watched) = refusing(move |d| {
+            (r.load(Ordering::SeqCst) && d == s)
+                .then(|| notify::Error::io(std::io::Error::from(std::io::ErrorKind::PermissionDenied)))
+        });
+        let (_tx, rx) = channel();
+        let mut w = Watcher::with_backend(rx, Ok(backend));
+        w.follow([f.clone()], None);
+        let warnings = w.take_warnings().join("\n");
+        assert!(warnings.contains("locked"), "{warnings}");
+        assert!(!watched.lock().unwrap().contains(&sub));
+        std::fs::write(&f, "two, longer").unwrap();
+        assert!(w.wait(Duration::from_millis(10)).contains(&absolute(&f)));
+        // Allowed now: the next poll places the watch.
+        refused.store(false, Ordering::SeqCst);
+        std::fs::write(&f, "three, longer still").unwrap();
+        assert!(w.wait(Duration::from_millis(10)).contains(&absolute(&f)));
+        assert!(watched.lock().unwrap().contains(&sub), "the watch was not tried again");
+        assert!(w.take_warnings().is_empty(), "a refusal is reported once");
+    }
+
+    #[test]
+    fn no_backend_at_all_polls_everything() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("a.txt");
+        let (_tx, rx) = channel();
+        let mut w = Watcher::with_backend(rx, Err(notify::Error::generic("no inotify instances left")));
+        assert!(w.take_warnings().join("\n").contains("no inotify instances left"));
+        // Followed before it exists; its creation is seen.
+        w.follow([f.clone()], None);
+        std::fs::write(&f, "one").unwrap();
+        assert!(w.wait(Duration::from_millis(10)).contains(&absolute(&f)));
+    }
+
+    #[test]
+    fn lost_events_and_backend_errors_count_as_everything_changed() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.txt"), dir.path().join("sub/b.txt"));
+        std::fs::write(&a, "a").unwrap();
+        let (tx, rx) = channel();
+        let (backend, _) = refusing(|_| None);
+        let mut w = Watcher::with_backend(rx, Ok(backend));
+        w.follow([a.clone(), b.clone()], None);
+        let all: BTreeSet<PathBuf> = [absolute(&a), absolute(&b)].into();
+        tx.send(Ok(notify::Event::new(EventKind::Other).set_flag(notify::event::Flag::Rescan))).unwrap();
+        assert_eq!(w.wait(Duration::from_millis(10)), all);
+        tx.send(Err(notify::Error::generic("read failed"))).unwrap();
+        assert_eq!(w.wait(Duration::from_millis(10)), all);
+        assert!(w.take_warnings().join("\n").contains("read failed"));
+    }
+
+    #[test]
+    fn events_about_other_paths_do_not_delay_a_rebuild() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = absolute(&dir.path().join("a.txt"));
+        let (tx, rx) = channel();
+        let (backend, _) = refusing(|_| None);
+        let mut w = Watcher::with_backend(rx, Ok(backend));
+        w.follow([a.clone()], None);
+        let noise = dir.path().join("noise.log");
+        let stop = Arc::new(AtomicBool::new(false));
+        let (s, t) = (stop.clone(), tx.clone());
+        let noisy = std::thread::spawn(move || {
+            while !s.load(Ordering::SeqCst) {
+                let _ = t.send(Ok(notify::Event::new(EventKind::Modify(ModifyKind::Any)).add_path(noise.clone())));
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        });
+        tx.send(Ok(notify::Event::new(EventKind::Create(notify::event::CreateKind::File)).add_path(a.clone())))
+            .unwrap();
+        assert_eq!(w.wait(Duration::from_millis(50)), [a].into());
+        stop.store(true, Ordering::SeqCst);
+        noisy.join().unwrap();
+    }
 }
