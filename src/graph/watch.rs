@@ -323,10 +323,10 @@ impl Watcher {
             for (f, d) in &cover {
                 let covered = d.as_ref().is_some_and(|d| self.armed.contains(d));
                 if covered {
-                    if self.polled.remove(f).is_some() || d.as_ref().is_some_and(|d| newly.contains(d)) {
-                        if check.changed(f) {
-                            changed.insert(f.clone());
-                        }
+                    // Watched only from now on: it may have changed while nothing watched it.
+                    let was_polled = self.polled.remove(f).is_some();
+                    if (was_polled || d.as_ref().is_some_and(|d| newly.contains(d))) && check.changed(f) {
+                        changed.insert(f.clone());
                     }
                 } else if !self.polled.contains_key(f) {
                     if check.changed(f) {
@@ -409,9 +409,12 @@ mod tests {
     use std::sync::Arc;
 
     /// A backend that refuses directories the way the system does when `refuse` says so.
+    type Refuse = Box<dyn Fn(&Path) -> Option<notify::Error> + Send>;
+    type Watched = Arc<std::sync::Mutex<Vec<PathBuf>>>;
+
     struct Refusing {
-        refuse: Box<dyn Fn(&Path) -> Option<notify::Error> + Send>,
-        watched: Arc<std::sync::Mutex<Vec<PathBuf>>>,
+        refuse: Refuse,
+        watched: Watched,
     }
 
     impl Backend for Refusing {
@@ -427,9 +430,7 @@ mod tests {
         fn unwatch(&mut self, _: &Path) {}
     }
 
-    fn refusing(
-        refuse: impl Fn(&Path) -> Option<notify::Error> + Send + 'static,
-    ) -> (Box<dyn Backend>, Arc<std::sync::Mutex<Vec<PathBuf>>>) {
+    fn refusing(refuse: impl Fn(&Path) -> Option<notify::Error> + Send + 'static) -> (Box<dyn Backend>, Watched) {
         let watched = Arc::new(std::sync::Mutex::new(Vec::new()));
         (Box::new(Refusing { refuse: Box::new(refuse), watched: watched.clone() }), watched)
     }
