@@ -363,3 +363,21 @@ fn an_input_in_a_directory_that_cannot_be_watched_is_polled() {
     drop(w);
     mode(0o755);
 }
+
+#[cfg(unix)]
+#[test]
+fn a_symlinked_scene_is_rebuilt_when_its_target_changes_or_it_is_retargeted() {
+    let p = Project::new(&[("real/one.tess", &constant_scene(0.25)), ("real/two.tess", &constant_scene(0.75))]);
+    std::os::unix::fs::symlink("real/one.tess", p.path("scene.tess")).expect("symlink");
+    let w = Watch::start(&p, "scene.tess");
+    w.until_value(&p, "out/scene/a.png", 0.25);
+    // The target is edited in its own directory.
+    p.write("real/one.tess", &constant_scene(0.5));
+    w.until_value(&p, "out/scene/a.png", 0.5);
+    // The link is pointed elsewhere (replaced by rename, as `ln -sf` does).
+    std::os::unix::fs::symlink("real/two.tess", p.path(".scene.tess.new")).expect("symlink");
+    std::fs::rename(p.path(".scene.tess.new"), p.path("scene.tess")).expect("retarget");
+    w.until_value(&p, "out/scene/a.png", 0.75);
+    p.write("real/two.tess", &constant_scene(1.0));
+    w.until_value(&p, "out/scene/a.png", 1.0);
+}

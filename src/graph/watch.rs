@@ -155,6 +155,15 @@ impl Watcher {
     /// before the change.
     pub fn follow(&mut self, files: impl IntoIterator<Item = PathBuf>, built: Option<SystemTime>) {
         self.files = files.into_iter().map(|f| absolute(&f)).collect();
+        // A symlink is followed by its own name (so retargeting it is seen) and by what it
+        // points to (so edits of the target are).
+        let targets: Vec<PathBuf> = self
+            .files
+            .iter()
+            .filter(|f| f.symlink_metadata().is_ok_and(|m| m.file_type().is_symlink()))
+            .filter_map(|f| f.canonicalize().ok())
+            .collect();
+        self.files.extend(targets);
         self.above = self.files.iter().flat_map(|f| f.ancestors().skip(1).map(Path::to_path_buf)).collect();
         self.polled.retain(|p, _| self.files.contains(p));
         let check = built.map_or(Check::Nothing, Check::Since);
