@@ -385,7 +385,7 @@ fn watch(cli: &Cli, p: &mut Project, scene: &Path, debounce: Duration) {
                 print_failed(failed);
                 println!("[watch] build failed; keeping the previous outputs");
             }
-            WatchEvent::Error(e) => eprintln!("error: {e}"),
+            WatchEvent::Warning(w) => eprintln!("warning: {w}"),
         }
         let _ = std::io::stdout().flush();
     });

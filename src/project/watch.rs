@@ -1,7 +1,7 @@
 //! `tessera watch`: rebuild a scene whenever a file it read changes.
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
 use super::{Built, Emitted, Failed, Project};
 use crate::graph::watch::Watcher;
@@ -17,41 +17,37 @@ pub enum WatchEvent<'a> {
     Failed {
         failed: &'a Failed,
     },
-    /// The watcher itself failed (the file system would not let us watch).
-    Error(String),
+    /// Some files cannot be watched (no permission, the system's limit on watches) and are
+    /// polled instead: slower to notice, never deaf.
+    Warning(String),
 }
 
-/// Builds `scene`, then rebuilds on every change of a file the last build read, until the
-/// watcher shuts down. A failed build keeps the previous outputs and is retried on the
-/// next change.
+/// Builds `scene`, then rebuilds on every change of a file the last build read, forever.
+/// A failed build keeps the previous outputs and is retried on the next change; the files it
+/// tried to read are followed too, so creating a missing one (or its directory) rebuilds.
 pub fn watch(project: &mut Project, scene: &Path, debounce: Duration, mut on: impl FnMut(WatchEvent)) {
     project.memory.get_or_insert_with(MemoryCache::default);
-    let mut watcher = match Watcher::new() {
-        Ok(w) => w,
-        Err(e) => return on(WatchEvent::Error(format!("cannot watch files: {e}"))),
-    };
+    let mut watcher = Watcher::new();
     // The scene is followed before the first build, and each build's files before its
     // report: an edit made while building, or by someone reacting to the report, is queued
     // and seen by the next wait rather than lost.
-    if let Err(e) = watcher.follow([scene.to_path_buf()]) {
-        return on(WatchEvent::Error(format!("cannot watch files: {e}")));
-    }
+    watcher.follow([scene.to_path_buf()], None);
     loop {
+        let started = SystemTime::now();
         let start = Instant::now();
         project.world.begin_build();
         let result = project.build(scene).and_then(|b| project.emit(&b).map(|e| (b, e)));
         let millis = start.elapsed().as_secs_f64() * 1000.0;
         let mut files: Vec<PathBuf> = project.world.accessed();
         files.push(scene.to_path_buf());
-        if let Err(e) = watcher.follow(files) {
-            return on(WatchEvent::Error(format!("cannot watch files: {e}")));
+        watcher.follow(files, Some(started));
+        for w in watcher.take_warnings() {
+            on(WatchEvent::Warning(w));
         }
         match &result {
             Ok((built, emitted)) => on(WatchEvent::Built { built, emitted, millis }),
             Err(failed) => on(WatchEvent::Failed { failed }),
         }
-        if watcher.wait(debounce).is_none() {
-            return;
-        }
+        watcher.wait(debounce);
     }
 }
