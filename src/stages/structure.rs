@@ -660,7 +660,7 @@ fn too_many_regions(e: &synthesis::TooManyRegions, o: &SampleOptions) -> StageEr
     } else {
         format!("{} regions on {} allowed pixels: a region cannot be smaller than a pixel", n(e.count), e.pixels)
     };
-    if !(e.unsized_count <= e.limit as f64) {
+    if e.unsized_count.is_nan() || e.unsized_count > e.limit as f64 {
         // Regions scale with s², so the smallest scale that fits is s·√(N'/limit).
         let least = o.scale * (e.unsized_count / e.limit.max(1) as f64).sqrt();
         return StageError::new(format!(
