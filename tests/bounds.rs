@@ -265,9 +265,9 @@ fn a_structure_file_with_many_regions_builds_in_time() {
         edges.join(", "),
         s = n as f64 * cell
     );
-    let scene = "scene {\n  seed = 3\n}\nsample g {\n  structure = \"grid.json\"\n}\nsurface t {\n  plane = 192 x 128\n}\nstructure st {\n  from = g\n  on = t\n}\noutput \"m.json\" {\n  from = st\n}\n";
+    let scene = "scene {\n  seed = 3\n}\nsample g {\n  structure = \"grid.json\"\n}\nsurface t {\n  plane = 256 x 192\n}\nstructure st {\n  from = g\n  on = t\n}\noutput \"m.json\" {\n  from = st\n}\n";
     let p = Project::new(&[("scene.tess", scene), ("grid.json", &json)]);
-    let (run, took) = run_within(p.dir.path(), &["build", "scene.tess", "-q"], Duration::from_secs(120));
+    let (run, took) = run_within(p.dir.path(), &["build", "scene.tess", "-q"], Duration::from_secs(60));
     run.ok();
     eprintln!("22 500-region structure file: {took:?}");
 }
