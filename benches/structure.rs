@@ -29,7 +29,8 @@ fn generators() -> Vec<Ellipse> {
     let params = StatisticalParams { scale, ..StatisticalParams::new(mean) };
     let mut sampler = EmpiricalSampler::new(&originals, ShapeSampling::Independent);
     let s =
-        statistical(SIZE, SIZE, &Controls::default(), &mut sampler, CenterSource::Uniform, &params, &mut Rng::new(7));
+        statistical(SIZE, SIZE, &Controls::default(), &mut sampler, CenterSource::Uniform, &params, &mut Rng::new(7))
+            .expect("300 regions fit");
     assert_eq!(s.generators.len(), 300);
     s.generators
 }

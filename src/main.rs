@@ -32,6 +32,10 @@ struct Cli {
     /// Print nothing but errors.
     #[arg(short, long, global = true)]
     quiet: bool,
+    /// Memory budget of a build (`4GiB`, `512MiB`, bytes); default: `[limits] max_memory` in
+    /// tessera.toml, else half the machine's memory.
+    #[arg(long, value_name = "SIZE", global = true, value_parser = tessera::graph::budget::parse_bytes)]
+    max_memory: Option<u64>,
 }
 
 #[derive(Subcommand)]
@@ -143,6 +147,9 @@ fn main() -> ExitCode {
         _ => Project::open(&cwd).map_err(|f| print_failed(&f)).and_then(|mut p| {
             p.sets = cli.sets.clone();
             p.progress = !cli.quiet;
+            if let Some(m) = cli.max_memory {
+                p.set_budget(tessera::graph::Budget::new(m));
+            }
             run(&cli, &mut p)
         }),
     };

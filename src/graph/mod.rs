@@ -1,5 +1,6 @@
 //! Keys, cache and scheduling. Knows nothing of the scene language or the algorithms:
 //! stages are opaque boxes with a kind, a version, parameters, inputs and files.
+pub mod budget;
 pub mod cache;
 pub mod exec;
 pub mod files;
@@ -9,6 +10,7 @@ pub mod stage;
 pub mod watch;
 pub mod world;
 
+pub use budget::Budget;
 pub use cache::Cache;
 pub use exec::{Executor, Failure, MemoryCache, Outcome, Report, StageRecord, Status};
 pub use files::write_atomic;

@@ -5,6 +5,10 @@
 //! Within a build the bytes that were hashed are the bytes a stage gets, so a file that
 //! changes mid-build cannot put a result under the wrong key. Across builds (watch mode)
 //! only hashes are kept, revalidated by size and modification time.
+//!
+//! Only regular files are read, and none larger than `max_file` bytes (a quarter of the
+//! memory budget): a FIFO, a device such as `/dev/zero` or a huge file named as an input is
+//! an error saying so, never a read that blocks or fills memory.
 
 use std::collections::{BTreeSet, HashMap};
 use std::io;
@@ -22,15 +26,34 @@ struct Entry {
     bytes: Option<Arc<[u8]>>,
 }
 
-#[derive(Default)]
 pub struct World {
     entries: Mutex<HashMap<PathBuf, Entry>>,
     accessed: Mutex<BTreeSet<PathBuf>>,
+    max_file: u64,
+}
+
+impl Default for World {
+    fn default() -> Self {
+        World::with_max_file(super::Budget::from_machine().max_file())
+    }
 }
 
 impl World {
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// A world that refuses files larger than `max_file` bytes.
+    pub fn with_max_file(max_file: u64) -> Self {
+        World { entries: Mutex::default(), accessed: Mutex::default(), max_file }
+    }
+
+    pub fn set_max_file(&mut self, max_file: u64) {
+        self.max_file = max_file;
+    }
+
+    pub fn max_file(&self) -> u64 {
+        self.max_file
     }
 
     /// Starts a new build: forgets what was read, drops held bytes, keeps hashes.
@@ -46,22 +69,65 @@ impl World {
         self.accessed.lock().expect("world lock").iter().cloned().collect()
     }
 
-    fn stat(path: &Path) -> io::Result<(u64, Option<SystemTime>)> {
+    fn stat(&self, path: &Path) -> io::Result<(u64, Option<SystemTime>)> {
         let m = std::fs::metadata(path)?;
-        if m.is_dir() {
+        self.admit(&m)?;
+        Ok((m.len(), m.modified().ok()))
+    }
+
+    /// Refuses what is not a regular file of at most `max_file` bytes.
+    fn admit(&self, m: &std::fs::Metadata) -> io::Result<()> {
+        let ft = m.file_type();
+        if ft.is_dir() {
             return Err(io::Error::new(io::ErrorKind::InvalidInput, "is a directory, not a file"));
         }
-        Ok((m.len(), m.modified().ok()))
+        if !ft.is_file() {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                "is not a regular file (a device, FIFO or socket); tessera reads only regular files",
+            ));
+        }
+        if m.len() > self.max_file {
+            return Err(self.too_large(Some(m.len())));
+        }
+        Ok(())
+    }
+
+    fn too_large(&self, len: Option<u64>) -> io::Error {
+        let size = len.map(|l| format!(" ({})", super::budget::Bytes(l as f64))).unwrap_or_default();
+        io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!(
+                "is too large{size}: input files may hold at most {}, a quarter of the memory budget (raise it with `--max-memory` or `[limits] max_memory` in tessera.toml)",
+                super::budget::Bytes(self.max_file as f64)
+            ),
+        )
+    }
+
+    /// Reads a whole regular file, never more than `max_file` bytes of it (the file may grow
+    /// between the check and the read).
+    fn read_capped(&self, path: &Path) -> io::Result<Vec<u8>> {
+        use std::io::Read;
+        let file = std::fs::File::open(path)?;
+        let m = file.metadata()?;
+        self.admit(&m)?;
+        let mut bytes = Vec::with_capacity(m.len() as usize);
+        file.take(self.max_file.saturating_add(1)).read_to_end(&mut bytes)?;
+        if bytes.len() as u64 > self.max_file {
+            return Err(self.too_large(None));
+        }
+        Ok(bytes)
     }
 
     /// The file's bytes, read at most once per build.
     pub fn read(&self, path: &Path) -> io::Result<Arc<[u8]>> {
         self.accessed.lock().expect("world lock").insert(path.to_path_buf());
-        let (_, mtime) = Self::stat(path)?;
+        // Checked before opening: opening a FIFO would wait for a writer.
+        let (_, mtime) = self.stat(path)?;
         if let Some(b) = self.entries.lock().expect("world lock").get(path).and_then(|e| e.bytes.clone()) {
             return Ok(b);
         }
-        let bytes: Arc<[u8]> = std::fs::read(path)?.into();
+        let bytes: Arc<[u8]> = self.read_capped(path)?.into();
         let hash = *blake3::hash(&bytes).as_bytes();
         self.entries
             .lock()
@@ -96,7 +162,7 @@ impl World {
     /// hashed before and has not changed since.
     pub fn hash(&self, path: &Path) -> io::Result<Hash> {
         self.accessed.lock().expect("world lock").insert(path.to_path_buf());
-        let (len, mtime) = Self::stat(path)?;
+        let (len, mtime) = self.stat(path)?;
         if let Some(e) = self.entries.lock().expect("world lock").get(path) {
             if e.bytes.is_some() || (e.len == len && e.mtime == mtime && mtime.is_some()) {
                 return Ok(e.hash);
@@ -126,5 +192,20 @@ mod tests {
         let h2 = w.hash(&p).unwrap();
         assert_ne!(h1, h2);
         assert!(w.read(dir.path().join("missing").as_path()).is_err());
+    }
+
+    #[test]
+    fn refuses_devices_and_large_files() {
+        let w = World::with_max_file(8);
+        let e = w.read(Path::new("/dev/zero")).unwrap_err();
+        assert!(e.to_string().contains("not a regular file"), "{e}");
+        assert!(w.hash(Path::new("/dev/null")).is_err());
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("big");
+        std::fs::write(&p, [0u8; 9]).unwrap();
+        let e = w.read_text(&p).unwrap_err();
+        assert!(e.to_string().contains("too large"), "{e}");
+        std::fs::write(&p, [b'a'; 8]).unwrap();
+        assert_eq!(&*w.read_text(&p).unwrap(), "aaaaaaaa");
     }
 }

@@ -17,6 +17,30 @@ pub const FILE_NAME: &str = "tessera.toml";
 pub struct Manifest {
     pub paths: Paths,
     pub check: Check,
+    pub limits: Limits,
+}
+
+#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct Limits {
+    /// The memory budget of a build (`"4 GiB"` or a byte count); default: from the machine
+    /// (see `graph::budget`).
+    #[serde(deserialize_with = "memory_size")]
+    pub max_memory: Option<u64>,
+}
+
+fn memory_size<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<u64>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Size {
+        Bytes(u64),
+        Text(String),
+    }
+    match Size::deserialize(d)? {
+        Size::Bytes(0) => Err(serde::de::Error::custom("max_memory must be positive")),
+        Size::Bytes(b) => Ok(Some(b)),
+        Size::Text(t) => crate::graph::budget::parse_bytes(&t).map(Some).map_err(serde::de::Error::custom),
+    }
 }
 
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -72,7 +96,7 @@ pub fn load(root: &Path) -> Result<Manifest, Diagnostics> {
         let d = Diagnostic::error(format!("invalid {FILE_NAME}: {}", e.message()))
             .with_code("tessera::manifest")
             .with_label(Span::new(id, range.start, range.end), "here")
-            .with_help("sections are [paths] (scenes, outputs, golden, cache) and [check] (tolerance, outliers)");
+            .with_help("sections are [paths] (scenes, outputs, golden, cache), [check] (tolerance, outliers) and [limits] (max_memory)");
         Diagnostics::new(vec![d], sources)
     })?;
     check_paths(root, &path, &text)?;
@@ -243,6 +267,19 @@ mod tests {
         std::fs::write(dir.path().join(FILE_NAME), "[paths]\nscenez = \"x\"\n").unwrap();
         let e = load(dir.path()).unwrap_err();
         assert!(e.items[0].message.contains("scenez"), "{}", e.items[0].message);
+        assert!(!e.items[0].labels.is_empty());
+    }
+
+    #[test]
+    fn memory_limits() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join(FILE_NAME), "[limits]\nmax_memory = \"2 GiB\"\n").unwrap();
+        assert_eq!(load(dir.path()).unwrap().limits.max_memory, Some(2 << 30));
+        std::fs::write(dir.path().join(FILE_NAME), "[limits]\nmax_memory = 1000\n").unwrap();
+        assert_eq!(load(dir.path()).unwrap().limits.max_memory, Some(1000));
+        std::fs::write(dir.path().join(FILE_NAME), "[limits]\nmax_memory = \"lots\"\n").unwrap();
+        let e = load(dir.path()).unwrap_err();
+        assert!(e.items[0].message.contains("not a size"), "{}", e.items[0].message);
         assert!(!e.items[0].labels.is_empty());
     }
 }

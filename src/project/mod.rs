@@ -18,7 +18,7 @@ pub use manifest::Manifest;
 pub use show::{graph_dot, graph_text, timings_table};
 pub use watch::{watch, WatchEvent};
 
-use crate::graph::{self, files, Cache, Executor, Key, MemoryCache, Report, World};
+use crate::graph::{self, files, Budget, Cache, Executor, Key, MemoryCache, Report, World};
 use crate::lang::{self, Diagnostic, Diagnostics, Scene};
 use crate::stages::{self, Bytes, Plan, PlannedOutput};
 
@@ -32,6 +32,8 @@ pub struct Project {
     pub memory: Option<MemoryCache>,
     pub sets: Vec<(String, String)>,
     pub progress: bool,
+    /// The memory budget planning and stages are held to (see `set_budget`).
+    pub budget: Budget,
 }
 
 /// A build that did not complete: diagnostics, and the stage report up to the failure.
@@ -86,7 +88,15 @@ impl Project {
         let manifest = manifest::load(&root)?;
         let root = relative_to(&root, cwd);
         let cache = Cache::new(root.join(&manifest.paths.cache));
-        Ok(Project { root, manifest, world: World::new(), cache, memory: None, sets: Vec::new(), progress: true })
+        let budget = manifest.limits.max_memory.map(Budget::new).unwrap_or_else(Budget::from_machine);
+        let world = World::with_max_file(budget.max_file());
+        Ok(Project { root, manifest, world, cache, memory: None, sets: Vec::new(), progress: true, budget })
+    }
+
+    /// Holds planning, stages and file reads to `budget`.
+    pub fn set_budget(&mut self, budget: Budget) {
+        self.budget = budget;
+        self.world.set_max_file(budget.max_file());
     }
 
     pub fn scenes_dir(&self) -> PathBuf {
@@ -127,7 +137,7 @@ impl Project {
         let registry = stages::registry();
         let opts = lang::Options { sets: &self.sets, registry: &registry };
         let scene = lang::compile(path, &WorldLoader(&self.world), &opts)?;
-        match stages::plan(&scene) {
+        match stages::plan_with(&scene, &stages::PlanOptions { budget: self.budget }) {
             Ok(plan) => Ok((scene, plan)),
             Err(errors) => Err(Diagnostics::new(errors, scene.sources).into()),
         }

@@ -54,6 +54,11 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     }
 }
 
+/// Working memory of a quilted layer per pixel: the RGB result, index map, seam mask and
+/// error surfaces, and the seam-removal solve (measured: a 1024² quilt peaks at ≈ 120 bytes
+/// per pixel, sample included).
+const QUILT_BYTES_PER_PIXEL: f64 = 128.0;
+
 /// The size of a quilted layer: its surface's plane, or the scene size.
 fn quilt_size(p: &Planner, d: &Decl) -> (usize, usize) {
     let (w, h) = match d.props.reference("on") {
@@ -80,6 +85,11 @@ pub(crate) fn color_space<'a>(p: &'a Planner, name: &str) -> &'a str {
 fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnostic> {
     let props = &d.props;
     let (w, h) = quilt_size(p, d);
+    let owner = match props.reference("on") {
+        Some(s) => p.decl(s),
+        None => p.scene.decls.iter().find(|s| s.kind == "scene").unwrap_or(d),
+    };
+    p.check_pixels(d, owner, if owner.kind == "surface" { "plane" } else { "size" }, (w, h), QUILT_BYTES_PER_PIXEL)?;
     let block = props.num("block").round() as usize;
     let overlap = props.opt_num("overlap").map(|o| o.round() as usize).unwrap_or((block / 6).max(1));
     if overlap >= block {

@@ -151,9 +151,15 @@ pub static SPEC: KindSpec = KindSpec {
     ],
 };
 
+/// Working memory of a map per pixel: an orientation field's two f32 channels, held by the
+/// source and the ops stage, and the resampling or blur scratch beside them (measured: a
+/// blurred 2048² noise map peaks at ≈ 21 bytes per pixel).
+const MAP_BYTES_PER_PIXEL: f64 = 24.0;
+
 pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let (w, h) = d.props.size("size");
     let (w, h) = (w as usize, h as usize);
+    p.check_pixels(d, d, "size", (w, h), MAP_BYTES_PER_PIXEL)?;
     let source = match d.props.get("from").expect("required") {
         Val::Ref(other) => {
             // Another map: resampled to this map's size if needed, by the ops stage.

@@ -21,7 +21,7 @@ pub use artifact::{Bytes, Encoded, FnStage};
 pub use library::axis_name;
 pub use output::{OutputFormat, PlannedOutput};
 
-use crate::graph::{Graph, Node, NodeId, Stage};
+use crate::graph::{Budget, Graph, Node, NodeId, Stage};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic, KindSpec, Scene};
 
@@ -76,8 +76,18 @@ impl Plan {
     }
 }
 
+/// What planning needs besides the scene.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PlanOptions {
+    /// Declarations whose sizes imply more memory are refused at plan time; stages refuse
+    /// what their inputs imply beyond it at run time. Not part of any key: it decides
+    /// whether a result is computed, never what it is.
+    pub budget: Budget,
+}
+
 pub(crate) struct Planner<'a> {
     pub scene: &'a Scene,
+    pub budget: Budget,
     graph: Graph,
     blame: Vec<Blame>,
     /// The node holding each declaration's result.
@@ -134,17 +144,48 @@ impl Planner<'_> {
         self.scene.decl(name).expect("resolved reference")
     }
 
+    /// Refuses a declaration whose raster of `w × h` pixels, at about `bytes_per_pixel` of
+    /// working memory each, cannot fit the budget. The size was set by `size_prop` of
+    /// `size_owner` (or, defaulted, by the scene's `size`); the diagnostic points there.
+    pub fn check_pixels(
+        &self,
+        d: &Decl,
+        size_owner: &Decl,
+        size_prop: &str,
+        (w, h): (usize, usize),
+        bytes_per_pixel: f64,
+    ) -> Result<(), Diagnostic> {
+        let what = format!("{} `{}` at {w} x {h} pixels", d.kind, d.name);
+        let Err(message) = self.budget.check(w as f64 * h as f64 * bytes_per_pixel, &what) else { return Ok(()) };
+        let scene_size = || self.scene.decls.iter().find(|s| s.kind == "scene").and_then(|s| s.props.span("size"));
+        let span = size_owner.props.span(size_prop).or_else(scene_size).unwrap_or(d.name_span);
+        let mut diag = Diagnostic::error(message).with_code("tessera::budget").with_label(span, "this size");
+        if span != d.name_span && size_owner.name != d.name {
+            diag = diag.with_label(d.name_span, "needed by this declaration");
+        }
+        Err(diag.with_help(
+            "use a smaller size, or raise the budget with `--max-memory` or `[limits] max_memory` in tessera.toml",
+        ))
+    }
+
     /// A seed for a random stream of this declaration.
     pub fn seed(&self, decl: &Decl, stream: &str) -> u64 {
         crate::synth::rng::derive_seed(self.scene.seed, &decl.name, stream)
     }
 }
 
-/// Plans a resolved scene. Errors are problems only visible with the whole declaration in
-/// view (a crop outside the image's declared size, an output extension tessera cannot write).
+/// Plans a resolved scene under the machine's default budget (see [`plan_with`]).
 pub fn plan(scene: &Scene) -> Result<Plan, Vec<Diagnostic>> {
+    plan_with(scene, &PlanOptions::default())
+}
+
+/// Plans a resolved scene. Errors are problems only visible with the whole declaration in
+/// view (a crop outside the image's declared size, an output extension tessera cannot write,
+/// a size that cannot fit the memory budget).
+pub fn plan_with(scene: &Scene, options: &PlanOptions) -> Result<Plan, Vec<Diagnostic>> {
     let mut p = Planner {
         scene,
+        budget: options.budget,
         graph: Graph::default(),
         blame: Vec::new(),
         results: HashMap::new(),

@@ -246,6 +246,11 @@ fn metric_kind(name: &str) -> MetricKind {
     }
 }
 
+/// Working memory of a structure per target pixel: the label raster, Lloyd's distances,
+/// flood queue and control maps, the polygoniser's edge maps (measured: a 1024² structure
+/// peaks at ≈ 40 bytes per pixel).
+const STRUCTURE_BYTES_PER_PIXEL: f64 = 48.0;
+
 pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let props = &d.props;
     let from = props.reference("from").expect("required");
@@ -261,6 +266,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let on = props.reference("on").expect("required");
     let (w, h) = p.decl(on).props.size("plane");
     let (w, h) = (w as usize, h as usize);
+    p.check_pixels(d, p.decl(on), "plane", (w, h), STRUCTURE_BYTES_PER_PIXEL)?;
     let seed = props.get("seed").map(|_| props.int("seed") as u64).unwrap_or_else(|| p.seed(d, "structure"));
 
     // A1: analysis of the sample's structure.
@@ -319,7 +325,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         },
     })
     .to_string();
-    let opts = SampleOptions::from(props);
+    let opts = SampleOptions::from(props, p.budget);
     let s1 = FnStage::new("structure.sample", 2, s1_params, move |cx| sample_generators(cx, &opts, maps, w, h, seed));
     let s1 = p.add(format!("structure {} (sampling)", d.name), s1, inputs, vec![]);
 
@@ -512,11 +518,19 @@ struct SampleOptions {
     size_mode: SizeMode,
     remove: RemoveMode,
     density: DensityParams,
+    /// Most regions the memory budget holds ([`REGION_BYTES`] each).
+    max_regions: usize,
 }
 
+/// Memory a region costs along the structure's stages: its generator, Lloyd's moments,
+/// its polygon and the mesh's vertices and edges, the original placed on it by the shape
+/// stage, and their cache encodings.
+const REGION_BYTES: f64 = 2048.0;
+
 impl SampleOptions {
-    fn from(props: &Props) -> Self {
+    fn from(props: &Props, budget: crate::graph::Budget) -> Self {
         SampleOptions {
+            max_regions: (budget.bytes as f64 / REGION_BYTES) as usize,
             statistical: props.enumeration("mode") == "statistical",
             scale: props.num("scale"),
             centers: props.enumeration("centers").to_string(),
@@ -575,8 +589,13 @@ fn sample_generators(
         return Ok(Generators { set: edits::Generators::new(kept), target_count: all.len(), dropped });
     }
     let model = &sample.model;
-    let params =
-        StatisticalParams { scale: o.scale, mean_area: model.mean_region_area, remove: o.remove, max_retries: 32 };
+    let params = StatisticalParams {
+        scale: o.scale,
+        mean_area: model.mean_region_area,
+        remove: o.remove,
+        max_retries: 32,
+        max_regions: o.max_regions,
+    };
     let axes_hist = model.ellipse_axes.histogram.clone();
     let angle_hist = model.ellipse_angle.histogram.clone();
     let mut centre_hist = model.ellipse_center.histogram.clone();
@@ -611,7 +630,8 @@ fn sample_generators(
             let mut sampler = EmpiricalSampler::new(&originals, mode).with_jitter(jitter);
             synthesis::statistical(w, h, &controls, &mut sampler, centers, &params, &mut rng)
         }
-    };
+    }
+    .map_err(|e| too_many_regions(&e, o))?;
     if synthesized.generators.is_empty() {
         return Err(StageError::new("no region fits on the surface: the occupancy map leaves no room at this scale")
             .with_help("lower `scale` or free more of the surface"));
@@ -621,6 +641,52 @@ fn sample_generators(
         target_count: synthesized.target_count,
         dropped: synthesized.dropped,
     })
+}
+
+/// `N'` that no label raster or budget can hold, blamed on the property that made it so:
+/// `scale` when the regions are too small without the size map, else the size map's setting.
+fn too_many_regions(e: &synthesis::TooManyRegions, o: &SampleOptions) -> StageError {
+    let n = |v: f64| if v.is_finite() { format!("{v:.3e}") } else { "unboundedly many".to_string() };
+    // As a person would write the value: `1e-30`, not thirty zeros.
+    let v = |x: f64| if x != 0.0 && !(1e-3..1e6).contains(&x.abs()) { format!("{x:e}") } else { format!("{x}") };
+    let over_budget = e.limit < e.pixels;
+    let what = if over_budget {
+        format!(
+            "{} regions need about {} but the memory budget is {}",
+            n(e.count),
+            crate::graph::budget::Bytes(e.count * REGION_BYTES),
+            crate::graph::budget::Bytes(e.limit as f64 * REGION_BYTES)
+        )
+    } else {
+        format!("{} regions on {} allowed pixels: a region cannot be smaller than a pixel", n(e.count), e.pixels)
+    };
+    if e.unsized_count.is_nan() || e.unsized_count > e.limit as f64 {
+        // Regions scale with s², so the smallest scale that fits is s·√(N'/limit).
+        let least = o.scale * (e.unsized_count / e.limit.max(1) as f64).sqrt();
+        return StageError::new(format!(
+            "`scale = {}` makes regions of {:.3e} px² on average: {what}",
+            v(o.scale),
+            e.region_area
+        ))
+        .at_prop("scale")
+        .with_help(format!("use `scale` of at least {least:.3e}"));
+    }
+    match o.size_mode {
+        SizeMode::Scale { k_min } => StageError::new(format!(
+            "the size map shrinks regions to {} of their size at black (`size_min = {}`): {what}",
+            v(k_min),
+            v(k_min)
+        ))
+        .at_prop("size_min")
+        .with_help("raise `size_min`, or lighten the size map"),
+        SizeMode::Fixed { radius } => StageError::new(format!(
+            "`size_fixed = {} px` makes regions of {:.3e} px² in the size map's dark half: {what}",
+            v(radius),
+            std::f64::consts::PI * radius * radius
+        ))
+        .at_prop("size_fixed")
+        .with_help("raise `size_fixed` (a region of one pixel has a mean radius of 0.56 px)"),
+    }
 }
 
 /// S2 (and S2 after edits): anisotropic Lloyd over the generators of node `gens`.

@@ -26,6 +26,8 @@ pub static SPEC: KindSpec = KindSpec {
 pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let (w, h) = d.props.size("plane");
     let (w, h) = (w as usize, h as usize);
+    // The occupancy plane (f32), and the copy the stage makes of its map.
+    p.check_pixels(d, d, "plane", (w, h), 8.0)?;
     let mut inputs = Vec::new();
     if let Some(m) = d.props.reference("occupancy") {
         inputs.push(p.result(m));

@@ -9,6 +9,12 @@
 //! scaled. Each generated vertex is then linked to the closest vertex of the placed original
 //! (the input of Algorithm 3).
 //!
+//! The search looks only at distinct shapes (identical originals, as in a regular grid or a
+//! label image of single pixels, are one candidate: the lowest index) and, of those within
+//! the area tolerance, at the [`MAX_CANDIDATES`] nearest in area, found by binary search in
+//! an area-sorted list. Its cost per generated region is therefore bounded whatever the
+//! sample's region count; samples with fewer candidates than that get the exact search.
+//!
 //! Generated regions are processed in parallel; each result depends only on its own inputs,
 //! so the output does not depend on the thread count.
 
@@ -77,10 +83,78 @@ pub struct AssociationReport {
     pub log: Vec<String>,
 }
 
+/// Most originals whose turning distance is computed for one generated region.
+pub const MAX_CANDIDATES: usize = 256;
+
 struct Shape {
     tf: TurningFunction,
     area: f64,
     centroid: Point,
+}
+
+/// The originals' shapes, and the distinct usable ones sorted by `(area, index)`.
+struct Catalogue {
+    shapes: Vec<Option<Shape>>,
+    by_area: Vec<usize>,
+    areas: Vec<f64>,
+}
+
+impl Catalogue {
+    fn new(originals: &[Vec<Point>]) -> Self {
+        let shapes: Vec<Option<Shape>> = originals.par_iter().map(|p| shape(p)).collect();
+        let mut seen = std::collections::HashSet::new();
+        let mut by_area: Vec<usize> = (0..shapes.len())
+            .filter(|&i| {
+                shapes[i].as_ref().is_some_and(|s| {
+                    // Bit-identical shapes give bit-identical matches: keep the first.
+                    let mut key = vec![s.area.to_bits(), s.tf.total.to_bits()];
+                    key.extend(s.tf.starts.iter().chain(&s.tf.angles).map(|v| v.to_bits()));
+                    seen.insert(key)
+                })
+            })
+            .collect();
+        let area = |i: usize| shapes[i].as_ref().expect("usable").area;
+        by_area.sort_by(|&a, &b| area(a).total_cmp(&area(b)).then(a.cmp(&b)));
+        let areas = by_area.iter().map(|&i| area(i)).collect();
+        Catalogue { shapes, by_area, areas }
+    }
+
+    /// Originals with `|area − a| ≤ c`, at most [`MAX_CANDIDATES`] of them, nearest in area first.
+    fn within(&self, a: f64, c: f64) -> Vec<usize> {
+        let lo = self.areas.partition_point(|&x| x < a && a - x > c);
+        let hi = self.areas.partition_point(|&x| x <= a || x - a <= c);
+        if hi - lo <= MAX_CANDIDATES {
+            return self.by_area[lo..hi].to_vec();
+        }
+        let split = self.areas.partition_point(|&x| x < a);
+        let (mut l, mut r) = (split, split);
+        let mut out = Vec::with_capacity(MAX_CANDIDATES);
+        while out.len() < MAX_CANDIDATES {
+            let take_left = match (l > lo, r < hi) {
+                (true, true) => a - self.areas[l - 1] <= self.areas[r] - a,
+                (left, _) => left,
+            };
+            if take_left {
+                l -= 1;
+                out.push(self.by_area[l]);
+            } else {
+                r += 1;
+                out.push(self.by_area[r - 1]);
+            }
+        }
+        out
+    }
+
+    /// The original nearest in area (ties: lowest index).
+    fn nearest_area(&self, a: f64) -> Option<usize> {
+        let p = self.areas.partition_point(|&x| x < a);
+        let left = (p > 0).then(|| {
+            let x = self.areas[p - 1];
+            (a - x, self.by_area[self.areas.partition_point(|&y| y < x)])
+        });
+        let right = (p < self.areas.len()).then(|| (self.areas[p] - a, self.by_area[p]));
+        [left, right].into_iter().flatten().min_by(|u, v| u.0.total_cmp(&v.0).then(u.1.cmp(&v.1))).map(|b| b.1)
+    }
 }
 
 fn shape(poly: &[Point]) -> Option<Shape> {
@@ -90,9 +164,12 @@ fn shape(poly: &[Point]) -> Option<Shape> {
 
 /// Associates every generated polygon with its closest original polygon.
 pub fn associate(generated: &[Vec<Point>], originals: &[Vec<Point>], params: &AssociateParams) -> AssociationReport {
-    let orig: Vec<Option<Shape>> = originals.par_iter().map(|p| shape(p)).collect();
-    let results: Vec<(Option<Association>, Option<String>)> =
-        generated.par_iter().enumerate().map(|(g, poly)| associate_one(g, poly, originals, &orig, params)).collect();
+    let catalogue = Catalogue::new(originals);
+    let results: Vec<(Option<Association>, Option<String>)> = generated
+        .par_iter()
+        .enumerate()
+        .map(|(g, poly)| associate_one(g, poly, originals, &catalogue, params))
+        .collect();
     let mut report = AssociationReport {
         associations: Vec::new(),
         within: 0,
@@ -118,22 +195,21 @@ fn associate_one(
     g: usize,
     poly: &[Point],
     originals: &[Vec<Point>],
-    orig: &[Option<Shape>],
+    catalogue: &Catalogue,
     params: &AssociateParams,
 ) -> (Option<Association>, Option<String>) {
+    let orig = &catalogue.shapes;
     let Some(gen) = shape(poly) else {
         return (None, Some(format!("region {g}: degenerate polygon, not associated")));
     };
     let pct = |t: f64| format!("±{:.0} %", t * 100.0);
     let best_within = |tol: f64| -> Option<(usize, f64, f64, f64)> {
         let mut best: Option<(usize, f64, f64, f64)> = None;
-        for (i, o) in orig.iter().enumerate() {
-            let Some(o) = o else { continue };
-            if (o.area - gen.area).abs() > tol * gen.area * (1.0 + 1e-12) {
-                continue;
-            }
+        for i in catalogue.within(gen.area, tol * gen.area * (1.0 + 1e-12)) {
+            let o = orig[i].as_ref().expect("catalogued originals have a shape");
             let m = best_match(&o.tf, &gen.tf, params.allow_rotation);
-            if best.is_none_or(|b| m.distance < b.1) {
+            // Smallest distance, then lowest index: the order candidates come in does not matter.
+            if best.is_none_or(|b| m.distance < b.1 || (m.distance == b.1 && i < b.0)) {
                 best = Some((i, m.distance, m.shift, m.rotation));
             }
         }
@@ -166,16 +242,7 @@ fn associate_one(
         step += 1;
     }
     if found.is_none() {
-        // Nearest area (ties: lowest index).
-        let mut best: Option<(usize, f64)> = None;
-        for (i, o) in orig.iter().enumerate() {
-            let Some(o) = o else { continue };
-            let d = (o.area - gen.area).abs();
-            if best.is_none_or(|b| d < b.1) {
-                best = Some((i, d));
-            }
-        }
-        let Some((i, _)) = best else {
+        let Some(i) = catalogue.nearest_area(gen.area) else {
             return (None, Some(format!("region {g}: no usable original shape")));
         };
         let o = orig[i].as_ref().expect("chosen original has a shape");

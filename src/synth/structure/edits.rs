@@ -74,7 +74,13 @@ pub enum EditError {
     NoSuchGenerator(usize),
     /// `DeleteAt` on an empty list.
     Empty,
-    /// The new centre lies in a forbidden pixel or outside the target.
+    /// The new centre lies outside the target (`width × height`).
+    Outside {
+        point: Point,
+        width: usize,
+        height: usize,
+    },
+    /// The new centre lies in a pixel the occupancy map forbids.
     Forbidden(Point),
     /// Non-positive or non-finite axes / angle.
     InvalidShape,
@@ -85,7 +91,12 @@ impl std::fmt::Display for EditError {
         match self {
             EditError::NoSuchGenerator(i) => write!(f, "no generator with id {i}"),
             EditError::Empty => write!(f, "no generator to delete"),
-            EditError::Forbidden(p) => write!(f, "position ({}, {}) is forbidden or outside the target", p[0], p[1]),
+            EditError::Outside { point: p, width, height } => {
+                write!(f, "position ({}, {}) lies outside the {width} x {height} target", p[0], p[1])
+            }
+            EditError::Forbidden(p) => {
+                write!(f, "position ({}, {}) lies where the occupancy map forbids regions", p[0], p[1])
+            }
             EditError::InvalidShape => write!(f, "axes must be positive and finite"),
         }
     }
@@ -105,7 +116,10 @@ pub struct Target<'a> {
 pub fn apply_edit(g: &mut Generators, edit: &Edit, target: &Target) -> Result<usize, EditError> {
     let check_id = |id: usize, g: &Generators| if id < g.len() { Ok(id) } else { Err(EditError::NoSuchGenerator(id)) };
     let check_pos = |p: Point| {
-        if point_allowed(target.allowed, target.width, target.height, p) {
+        // Outside the raster is a wrong position whether or not there is an occupancy map.
+        if !point_allowed(None, target.width, target.height, p) {
+            Err(EditError::Outside { point: p, width: target.width, height: target.height })
+        } else if point_allowed(target.allowed, target.width, target.height, p) {
             Ok(())
         } else {
             Err(EditError::Forbidden(p))
@@ -319,6 +333,10 @@ mod tests {
         assert_eq!(
             apply_edit(&mut g, &Edit::Move { id: 0, to: [7.5, 1.0] }, &t),
             Err(EditError::Forbidden([7.5, 1.0]))
+        );
+        assert_eq!(
+            apply_edit(&mut g, &Edit::Move { id: 0, to: [12.0, 1.0] }, &t),
+            Err(EditError::Outside { point: [12.0, 1.0], width: 10, height: 10 })
         );
         assert_eq!(
             apply_edit(&mut g, &Edit::Set { id: 0, a: Some(-1.0), b: None, theta: None }, &t),

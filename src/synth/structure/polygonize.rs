@@ -749,8 +749,63 @@ struct Editable {
     vchains: Vec<Vec<usize>>,
     /// Rings (region index, ring index) using each chain.
     chain_rings: Vec<Vec<(usize, usize)>>,
+    /// Which chains have segments near each place, so that validating an edit looks at
+    /// its neighbourhood, not at every segment of the mesh.
+    near: SegmentIndex,
     w: f64,
     h: f64,
+}
+
+/// A uniform grid of cells listing the chains whose segments' boxes meet them. Entries are
+/// added as chains change and never removed: a stale entry costs a look, never a wrong
+/// answer, since the chains' current points are what is tested.
+struct SegmentIndex {
+    cell: f64,
+    gw: usize,
+    gh: usize,
+    cells: Vec<Vec<u32>>,
+}
+
+impl SegmentIndex {
+    /// About one cell per segment, so a look visits a few segments whatever the mesh size.
+    fn new(w: f64, h: f64, segments: usize) -> Self {
+        let cell = (w * h / segments.max(1) as f64).sqrt().max(2.0);
+        let gw = (w / cell) as usize + 1;
+        let gh = (h / cell) as usize + 1;
+        SegmentIndex { cell, gw, gh, cells: vec![Vec::new(); gw * gh] }
+    }
+
+    fn range(&self, lo: Point, hi: Point) -> (usize, usize, usize, usize) {
+        let c = |v: f64, n: usize| ((v / self.cell).floor().max(0.0) as usize).min(n - 1);
+        (c(lo[0], self.gw), c(hi[0], self.gw), c(lo[1], self.gh), c(hi[1], self.gh))
+    }
+
+    fn insert(&mut self, chain: usize, pos: &[Point], pts: &[u32]) {
+        for p in pts.windows(2) {
+            let (a, b) = (pos[p[0] as usize], pos[p[1] as usize]);
+            let (x0, x1, y0, y1) = self.range([a[0].min(b[0]), a[1].min(b[1])], [a[0].max(b[0]), a[1].max(b[1])]);
+            for gy in y0..=y1 {
+                for gx in x0..=x1 {
+                    let c = &mut self.cells[gy * self.gw + gx];
+                    if c.last() != Some(&(chain as u32)) {
+                        c.push(chain as u32);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Chains that may have a segment meeting the box, sorted, without repeats.
+    fn chains_near(&self, lo: Point, hi: Point, out: &mut Vec<usize>) {
+        let (x0, x1, y0, y1) = self.range(lo, hi);
+        for gy in y0..=y1 {
+            for gx in x0..=x1 {
+                out.extend(self.cells[gy * self.gw + gx].iter().map(|&c| c as usize));
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
 }
 
 impl Editable {
@@ -787,7 +842,13 @@ impl Editable {
                 }
             }
         }
+        let segments = chains.iter().map(|c| c.pts.len().saturating_sub(1)).sum();
+        let mut near = SegmentIndex::new(w, h, segments);
+        for (ci, c) in chains.iter().enumerate() {
+            near.insert(ci, &pos, &c.pts);
+        }
         Editable {
+            near,
             pos,
             chains,
             rings,
@@ -866,11 +927,16 @@ impl Editable {
                 }
             }
         }
+        let mut near = Vec::new();
         for &(ci, k, a0, a1) in &new_segs {
             let (bx0, bx1) = (a0[0].min(a1[0]), a0[0].max(a1[0]));
             let (by0, by1) = (a0[1].min(a1[1]), a0[1].max(a1[1]));
-            for (cj, chain) in self.chains.iter().enumerate() {
-                let pts = new_chains.get(&cj).unwrap_or(&chain.pts);
+            // The index knows the unchanged chains; the changed ones are looked at whole.
+            near.clear();
+            near.extend(new_chains.keys().copied());
+            self.near.chains_near([bx0, by0], [bx1, by1], &mut near);
+            for &cj in &near {
+                let pts = new_chains.get(&cj).unwrap_or(&self.chains[cj].pts);
                 let n = pts.len().saturating_sub(1);
                 let closed = pts.len() > 1 && pts[0] == pts[pts.len() - 1];
                 for (kj, q) in pts.windows(2).enumerate() {
@@ -965,6 +1031,7 @@ impl Editable {
                 self.vchains[keep as usize].sort_unstable();
                 self.vchains[keep as usize].dedup();
                 for (ci, pts) in check {
+                    self.near.insert(ci, &self.pos, &pts);
                     self.chains[ci].pts = pts;
                 }
                 let (d, o, j) = (self.dom[gone as usize], self.occ[gone as usize], self.junction[gone as usize]);
@@ -1050,6 +1117,7 @@ impl Editable {
                     m.insert(ci, np.clone());
                     // Validate the new segment a–c: reuse the vertex check on its start.
                     if self.valid_after(&m, np[k - 1]) {
+                        self.near.insert(ci, &self.pos, &np);
                         self.chains[ci].pts = np;
                         continue;
                     }

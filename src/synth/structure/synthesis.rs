@@ -27,8 +27,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::controls::{
-    allowed_from_occupancy, area_weight, density_weight, ellipse_overlaps_forbidden, point_allowed, Controls,
-    RemoveMode,
+    allowed_area, allowed_from_occupancy, area_weight, density_weight, ellipse_overlaps_forbidden, point_allowed,
+    Controls, RemoveMode,
 };
 use super::metric::canonical;
 use super::types::{Ellipse, Point};
@@ -132,12 +132,37 @@ pub struct StatisticalParams {
     pub remove: RemoveMode,
     /// Re-placements of an ellipse overlapping the forbidden area (`AnyOverlap` only).
     pub max_retries: usize,
+    /// Most generators the caller can hold (its memory budget); fewer than one region per
+    /// allowed pixel is enforced regardless.
+    pub max_regions: usize,
 }
 
 impl StatisticalParams {
     pub fn new(mean_area: f64) -> Self {
-        StatisticalParams { scale: 1.0, mean_area, remove: RemoveMode::Center, max_retries: 32 }
+        StatisticalParams {
+            scale: 1.0,
+            mean_area,
+            remove: RemoveMode::Center,
+            max_retries: 32,
+            max_regions: usize::MAX,
+        }
     }
+}
+
+/// Why [`statistical`] refused to sample: `N'` is not a count the label raster or the
+/// caller's memory can hold. Decided before anything is allocated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TooManyRegions {
+    /// `N'` as computed (may be infinite or NaN).
+    pub count: f64,
+    /// `N'` without the size map: above `limit` too means `scale` alone is at fault.
+    pub unsized_count: f64,
+    /// The mean region area `s²·r̄`, in px².
+    pub region_area: f64,
+    /// Allowed pixels of the target.
+    pub pixels: usize,
+    /// The bound `N'` broke: the allowed pixels or `max_regions`, whichever is smaller.
+    pub limit: usize,
 }
 
 /// Sampled generators, ready for Lloyd.
@@ -227,11 +252,26 @@ pub fn statistical(
     centers: CenterSource,
     params: &StatisticalParams,
     rng: &mut Rng,
-) -> Synthesized {
+) -> Result<Synthesized, TooManyRegions> {
     controls.check(width, height);
     let allowed = controls.allowed();
     let region_area = params.scale * params.scale * params.mean_area;
     let area = effective_area(width, height, controls, region_area);
+    // A region smaller than a pixel cannot be a label of the raster, so `N'` above the
+    // allowed pixel count (a tiny `scale`, a size map shrinking regions to nothing) is
+    // refused here, before the generator list or the sampler's loop is sized by it.
+    let allowed_pixels = allowed_area(allowed.as_deref(), width, height);
+    let count = area / region_area;
+    let limit = allowed_pixels.min(params.max_regions);
+    if !(region_area > 0.0 && count <= limit as f64) {
+        return Err(TooManyRegions {
+            count,
+            unsized_count: allowed_pixels as f64 / region_area,
+            region_area,
+            pixels: allowed_pixels,
+            limit,
+        });
+    }
     let target = region_count(area, params.scale, params.mean_area);
     let use_density = !matches!(centers, CenterSource::Uniform);
     let weights = (0..width * height).map(|i| {
@@ -255,7 +295,7 @@ pub fn statistical(
         Synthesized { generators: Vec::with_capacity(target), frozen: Vec::new(), target_count: target, dropped: 0 };
     if pixels.total() <= 0.0 {
         out.dropped = target;
-        return out;
+        return Ok(out);
     }
     let mut centers = centers;
     let mut place = |rng: &mut Rng| -> Point {
@@ -293,7 +333,7 @@ pub fn statistical(
         out.generators.push(e);
     }
     out.frozen = vec![false; out.generators.len()];
-    out
+    Ok(out)
 }
 
 /// Trivial synthesis: Gaussian noise on the centres (`σ` px) and angles (`σ` rad).
@@ -430,7 +470,8 @@ mod tests {
         for scale in [1.0, 0.5] {
             let mut sampler = EmpiricalSampler::new(&ex.ellipses, ShapeSampling::Joint);
             let params = StatisticalParams { scale, ..StatisticalParams::new(rbar) };
-            let s = statistical(w, h, &controls, &mut sampler, CenterSource::Density, &params, &mut Rng::new(101));
+            let s =
+                statistical(w, h, &controls, &mut sampler, CenterSource::Density, &params, &mut Rng::new(101)).unwrap();
             let expected = (allowed_px / (scale * scale * rbar)).round() as usize;
             assert_eq!(s.target_count, expected);
             assert_eq!(s.generators.len(), expected);
@@ -472,7 +513,8 @@ mod tests {
                     CenterSource::Density,
                     &StatisticalParams::new(rbar),
                     &mut Rng::new(seed),
-                );
+                )
+                .unwrap();
                 let r = relax(w, h, &s, &Controls::default());
                 let fits = interior_fits(&r);
                 let gbar = fits.iter().map(|f| f.area).sum::<f64>() / fits.len() as f64;
@@ -541,7 +583,8 @@ mod tests {
                 CenterSource::Density,
                 &StatisticalParams::new(rbar),
                 &mut Rng::new(121),
-            );
+            )
+            .unwrap();
             let r = relax(w, h, &s, &controls);
             let fits: Vec<Fit> = fit_regions(&r.labels, r.generators.len()).into_iter().flatten().collect();
             let mean_w = fits.iter().map(|f| weight_at(f.ellipse.center)).sum::<f64>() / fits.len() as f64;
@@ -597,7 +640,8 @@ mod tests {
             CenterSource::Density,
             &StatisticalParams::new(rbar),
             &mut Rng::new(181),
-        );
+        )
+        .unwrap();
         assert_eq!(s.target_count, (allowed_px / rbar).round() as usize);
         let r = relax(w, h, &s, &controls);
         let mut labelled_forbidden = 0;
@@ -671,7 +715,8 @@ mod tests {
             CenterSource::Density,
             &StatisticalParams::new(rbar),
             &mut Rng::new(191),
-        );
+        )
+        .unwrap();
         let r = relax(w, h, &s, &controls);
         let fits = interior_fits(&r);
         let (mut dark, mut light) = (Vec::new(), Vec::new());
@@ -709,7 +754,8 @@ mod tests {
                 CenterSource::Density,
                 &StatisticalParams::new(rbar),
                 &mut Rng::new(192),
-            );
+            )
+            .unwrap();
             let r = relax(w, h, &s, &controls);
             let theta: Vec<f64> =
                 interior_fits(&r).iter().filter(|f| f.anisotropy >= 1.02).map(|f| f.ellipse.theta).collect();
