@@ -277,7 +277,7 @@ fn typed(rng: &mut Rng, prop: &str, ty: &Ty, names: &Names, depth: usize) -> Str
         Ty::Bool => (if rng.chance(0.5) { "true" } else { "false" }).into(),
         Ty::Size => size(rng),
         Ty::Vec2(unit) => format!("[{}, {}]", coord(rng, *unit), coord(rng, *unit)),
-        Ty::Numbers(unit) => {
+        Ty::Numbers(unit, _) => {
             let n = if rng.chance(0.7) { 4 } else { rng.below(7) };
             let v: Vec<String> = (0..n).map(|_| coord(rng, *unit)).collect();
             format!("[{}]", v.join(", "))

@@ -106,6 +106,9 @@ fn fmt_coord(v: f64) -> String {
     format!("{}", if r == 0.0 { 0.0 } else { r })
 }
 
+/// The largest coordinate a structure file may hold, in pixels (the largest image side).
+pub const MAX_COORD: f64 = 16384.0;
+
 /// A parsed structure file: the subdivision and the optional sample size.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StructureFile {
@@ -146,7 +149,7 @@ pub fn parse_structure_file(text: &str) -> Result<StructureFile, StructureError>
         }
     }
     if let Some([w, h]) = raw.size {
-        if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0) {
+        if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0 && w <= MAX_COORD && h <= MAX_COORD) {
             return Err(StructureError::InvalidField {
                 field: "size".into(),
                 message: format!("size must be two positive numbers [width, height], got [{w}, {h}]"),
@@ -158,6 +161,17 @@ pub fn parse_structure_file(text: &str) -> Result<StructureFile, StructureError>
             return Err(StructureError::InvalidField {
                 field: "vertices".into(),
                 message: format!("vertex {i} has a non-finite coordinate"),
+            });
+        }
+        // Structures are drawn on images, whose sides are at most MAX_COORD pixels; a vertex
+        // far beyond would make per-pixel analysis rasterise an unbounded area.
+        if v[0].abs() > MAX_COORD || v[1].abs() > MAX_COORD {
+            return Err(StructureError::InvalidField {
+                field: "vertices".into(),
+                message: format!(
+                    "vertex {i} at ({:e}, {:e}) lies beyond ±{MAX_COORD} px, the largest image side",
+                    v[0], v[1]
+                ),
             });
         }
     }
@@ -238,6 +252,18 @@ mod tests {
 
     const SQUARE: &str = r#"{ "units": "px", "size": [10, 10],
         "vertices": [[0,0],[4,0],[4,4],[0,4]], "edges": [[0,1],[1,2],[2,3],[3,0]] }"#;
+
+    #[test]
+    fn coordinates_beyond_the_largest_image_are_refused() {
+        // Found by fuzzing: a vertex at -1e308 panicked in synthesis and one at 1e308 made the
+        // pixel moments rasterise gigabytes.
+        for v in ["-1e308", "1e308", "16385"] {
+            let text = SQUARE.replace("[4,4]", &format!("[{v},4]"));
+            let e = parse_structure_file(&text).unwrap_err().to_string();
+            assert!(e.contains("largest image side"), "{v}: {e}");
+        }
+        assert!(parse_structure_file(&SQUARE.replace("\"size\": [10, 10]", "\"size\": [1e9, 10]")).is_err());
+    }
 
     #[test]
     fn parses_a_square() {
