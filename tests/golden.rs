@@ -27,7 +27,7 @@ fn one_changed_pixel_beyond_tolerance_fails_with_a_diff_image() {
     run.failed();
     let out = run.stdout();
     assert!(out.contains("FAIL") && out.contains("density.png") && out.contains("1/49152"), "{out}");
-    let diff = p.path("out/masks/density.diff.png");
+    let diff = p.path("out/.diff/masks/density.png.diff.png");
     assert!(diff.exists(), "no diff image:\n{out}");
     let d = raster::io::decode(&std::fs::read(diff).expect("read diff")).expect("decode diff");
     assert_eq!((d.width, d.height), (256, 192));

@@ -259,7 +259,7 @@ fn a_sample_with_only_a_structure_is_not_an_image() {
     let structure = std::fs::read(common::repo().join("samples/standins/wall_random.json")).expect("structure");
     for (scene, at) in [
         ("sample s {\n  structure = \"s.json\"\n}\n\noutput \"o.png\" {\n  from = s\n}\n", "6:10"),
-        ("sample s {\n  structure = \"s.json\"\n}\n\nlayer q {\n  quilt = s\n  size = 32 x 32\n}\n\noutput \"o.png\" {\n  from = q\n}\n", "6:11"),
+        ("sample s {\n  structure = \"s.json\"\n}\n\nlayer q {\n  quilt = s\n}\n\noutput \"o.png\" {\n  from = q\n}\n", "6:11"),
     ] {
         let stderr = failed_build("structure-only sample", scene, &[("s.json", &structure)]);
         assert!(stderr.contains("holds only a structure file, not an image"), "{stderr}");

@@ -260,16 +260,16 @@ fn the_scene_replaced_by_rename_as_editors_save_rebuilds_each_time() {
 fn the_scenes_own_directory_replaced_rebuilds() {
     let p = Project::new(&[("scenes/s.tess", &constant_scene(0.25))]);
     let w = Watch::start(&p, "scenes/s.tess");
-    w.until_value(&p, "out/s/a.png", 0.25);
+    w.until_value(&p, "out/scenes/s/a.png", 0.25);
     for (round, v) in [0.5f32, 0.75].into_iter().enumerate() {
         let start = Instant::now();
         std::fs::remove_dir_all(p.path("scenes")).expect("rm -rf");
         p.write("scenes/s.tess", &constant_scene(v));
-        w.until_value(&p, "out/s/a.png", v);
+        w.until_value(&p, "out/scenes/s/a.png", v);
         report(&format!("scene directory replaced (round {})", round + 1), start.elapsed());
     }
     p.write("scenes/s.tess", &constant_scene(0.125));
-    w.until_value(&p, "out/s/a.png", 0.125);
+    w.until_value(&p, "out/scenes/s/a.png", 0.125);
 }
 
 #[test]

@@ -759,11 +759,19 @@ fn write_summary(dir: &Path, s: &Summary) {
     let _ = std::fs::write(dir.join("summary.txt"), s.report());
 }
 
+/// A name for one chunk's scratch files, unique within the machine: campaigns running at
+/// once in one process (the tests of one test binary) must not share a workspace.
+fn run_tag() -> String {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    format!("{}-{}", std::process::id(), NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed))
+}
+
 fn run_chunk(shared: &Shared, spawn: &Spawn, slot: usize, stream: Stream, start: u64, end: u64) {
     let cfg = &shared.config;
     let mut next = start;
-    let scratch = std::env::temp_dir().join(format!("tessera-fuzz-{}-{slot}", std::process::id()));
-    let stderr_path = std::env::temp_dir().join(format!("tessera-fuzz-{}-{slot}.stderr", std::process::id()));
+    let tag = run_tag();
+    let scratch = std::env::temp_dir().join(format!("tessera-fuzz-{tag}-{slot}"));
+    let stderr_path = std::env::temp_dir().join(format!("tessera-fuzz-{tag}-{slot}.stderr"));
     while next < end {
         let job = WorkerJob {
             seed: cfg.seed,
@@ -895,9 +903,10 @@ fn minimize_crash(shared: &Shared, spawn: &Spawn, slot: usize, id: CaseId, signa
     }
     let limit = shared.config.time_limit_s.min(10.0);
     let deadline = Instant::now() + Duration::from_secs(180);
-    let dir = std::env::temp_dir().join(format!("tessera-fuzz-{}-{slot}-probe", std::process::id()));
-    let scratch = std::env::temp_dir().join(format!("tessera-fuzz-{}-{slot}-probe-ws", std::process::id()));
-    let stderr_path = std::env::temp_dir().join(format!("tessera-fuzz-{}-{slot}-probe.stderr", std::process::id()));
+    let tag = run_tag();
+    let dir = std::env::temp_dir().join(format!("tessera-fuzz-{tag}-{slot}-probe"));
+    let scratch = std::env::temp_dir().join(format!("tessera-fuzz-{tag}-{slot}-probe-ws"));
+    let stderr_path = std::env::temp_dir().join(format!("tessera-fuzz-{tag}-{slot}-probe.stderr"));
     let min = minimize(&case.text, 60, |candidate| {
         if Instant::now() > deadline {
             return false;
