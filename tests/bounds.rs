@@ -311,3 +311,20 @@ fn watch_survives_a_refused_size_min() {
     assert!(failed, "watch did not report the failed build");
     assert!(alive, "watch exited after the failed build");
 }
+
+#[test]
+fn a_huge_sample_resize_is_refused_at_resize() {
+    // Found by the fuzz campaign: `resize = 16384 x 16384` allocated 3 GiB in the resampler.
+    let img = tessera::raster::io::encode_png(&tessera::raster::Image::filled(4, 4, 3, 0.5), 8).expect("png");
+    let scene = "sample s {\n  image = \"a.png\"\n  resize = 16384 x 16384\n}\noutput \"s.png\" {\n  from = s\n}\n";
+    let p = Project::new(&[("scene.tess", scene)]);
+    p.write_bytes("a.png", &img);
+    let (run, took) =
+        run_within(p.dir.path(), &["build", "scene.tess", "--max-memory", "3GiB"], Duration::from_secs(30));
+    run.failed();
+    let err = flat(&run);
+    assert!(err.contains("sample `s` at 16384 x 16384 pixels needs about 12.0 GiB"), "{err}");
+    assert!(err.contains("resize = 16384 x 16384") && err.contains("this size"), "{err}");
+    assert!(took < Duration::from_secs(5), "took {took:?}");
+    assert!(!p.path("out").exists());
+}

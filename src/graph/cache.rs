@@ -114,7 +114,11 @@ impl Cache {
                     std::fs::create_dir_all(&self.dir)
                         .map_err(|e| format!("cannot create the cache `{}`: {e}", self.dir.display()))?;
                 } else if let Some(foreign) = self.first_foreign() {
-                    return Err(not_a_cache(&self.dir, &foreign));
+                    // A build running at the same time may have just claimed it.
+                    if !is_marker(&marker) {
+                        return Err(not_a_cache(&self.dir, &foreign));
+                    }
+                    return Ok(());
                 }
                 files::write_atomic(&marker, MARKER_TEXT.as_bytes())
                     .map_err(|e| format!("cannot mark the cache `{}`: {e}", self.dir.display()))
@@ -131,7 +135,7 @@ impl Cache {
         for e in entries {
             let Ok(e) = e else { return Some(self.dir.clone()) };
             let name = e.file_name().to_string_lossy().into_owned();
-            if name == MARKER {
+            if name == MARKER || files::is_temporary(&name) {
                 continue;
             }
             if !(is_shard_name(&name) && e.file_type().is_ok_and(|t| t.is_dir())) {
@@ -165,11 +169,12 @@ impl Cache {
                 return Err(not_a_cache(&self.dir, &foreign));
             }
         }
+        files::sweep_stale(&self.dir);
         let keep_hex: HashSet<String> = keep.iter().map(|k| k.hex()).collect();
         let shards = std::fs::read_dir(&self.dir).map_err(|e| format!("cannot list `{}`: {e}", self.dir.display()))?;
         for shard in shards.flatten() {
             let prefix = shard.file_name().to_string_lossy().into_owned();
-            if prefix == MARKER {
+            if prefix == MARKER || files::is_temporary(&prefix) {
                 continue;
             }
             if !(is_shard_name(&prefix) && shard.file_type().is_ok_and(|t| t.is_dir())) {

@@ -379,8 +379,12 @@ fn create_dirs(dir: &Path, created: &mut Vec<PathBuf>) -> io::Result<()> {
         }
     }
     for m in missing.into_iter().rev() {
-        std::fs::create_dir(&m)?;
-        created.push(m);
+        match std::fs::create_dir(&m) {
+            Ok(()) => created.push(m),
+            // Another build made it meanwhile: it is not ours to remove on a rollback.
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists && m.is_dir() => {}
+            Err(e) => return Err(e),
+        }
     }
     Ok(())
 }
@@ -490,6 +494,26 @@ mod tests {
         assert_eq!(w.iter().map(|w| w.changed).collect::<Vec<_>>(), [false, true]);
         assert_eq!(std::fs::read(&b).unwrap(), b"new");
         assert_eq!(std::fs::read_dir(dir.path().join("sub")).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn two_sets_creating_one_directory_both_succeed() {
+        // Two builds of one scene at once both create `out/<scene>/`.
+        for round in 0..20 {
+            let dir = tempfile::tempdir().unwrap();
+            let target = dir.path().join(format!("out/s{round}/sub"));
+            std::thread::scope(|s| {
+                for t in 0..2u8 {
+                    let target = target.clone();
+                    s.spawn(move || {
+                        let mut set = OutputSet::new();
+                        set.add(target.join("a.png"), vec![t]);
+                        set.commit().unwrap();
+                    });
+                }
+            });
+            assert!(target.join("a.png").is_file());
+        }
     }
 
     #[test]

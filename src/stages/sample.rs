@@ -90,6 +90,9 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         }
     };
     let prep = Prepare::of(d)?;
+    if let Some((w, h)) = prep.resize {
+        p.check_pixels(d, d, "resize", (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
+    }
     let params = props.canonical();
     let stage = FnStage::new("sample.image", 1, params, move |cx| prep.apply(&cx.file(0)?, 0));
     let span = props.span("image").unwrap_or(d.name_span);
@@ -100,6 +103,9 @@ fn plan_similar(p: &mut Planner, d: &Decl, call: &crate::lang::ir::Call) -> Resu
     let (query, files) = super::library::plan_similar(p, d, call)?;
     p.parts.insert((d.name.clone(), "ranking"), query);
     let prep = Prepare::of(d)?;
+    if let Some((w, h)) = prep.resize {
+        p.check_pixels(d, d, "resize", (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
+    }
     let pick = call.args.int("pick") as usize;
     let span = d.props.span("from").unwrap_or(d.name_span);
     let params = d.props.canonical();
@@ -112,6 +118,10 @@ fn plan_similar(p: &mut Planner, d: &Decl, call: &crate::lang::ir::Call) -> Resu
     let files = files.into_iter().map(|f| (f, span)).collect();
     Ok(p.add(format!("sample {}", d.name), stage, vec![query], files))
 }
+
+/// Peak bytes per pixel of a resized sample: up to four f32 channels held as the source's
+/// column pass and the result, and the colour conversion's copy.
+const RESIZE_BYTES_PER_PIXEL: f64 = 48.0;
 
 /// How an image file becomes a sample: decode, linearise, crop, resize, colour space.
 #[derive(Clone)]
