@@ -5,7 +5,6 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -276,21 +275,7 @@ fn a_structure_file_with_many_regions_builds_in_time() {
 fn watch_survives_a_refused_size_min() {
     // Was: `watch` died with exit 101 on the capacity-overflow panic.
     let p = wall_project("  size = dark\n  size_min = 0");
-    let mut child = Command::new(common::bin())
-        .args(["watch", "scene.tess"])
-        .current_dir(p.dir.path())
-        .env("NO_COLOR", "1")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("watch");
-    let stdout = child.stdout.take().expect("stdout");
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            let _ = tx.send(line);
-        }
-    });
+    let (mut child, rx) = common::spawn_watch(&p, "scene.tess");
     let deadline = Instant::now() + Duration::from_secs(60);
     let mut failed = false;
     while Instant::now() < deadline {

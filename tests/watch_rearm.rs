@@ -5,9 +5,8 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc::{channel, Receiver};
+use std::process::Child;
+use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use common::Project;
@@ -24,20 +23,7 @@ struct Watch {
 
 impl Watch {
     fn start(p: &Project, scene: &str) -> Watch {
-        let mut child = Command::new(common::bin())
-            .args(["watch", scene])
-            .current_dir(p.dir.path())
-            .env("NO_COLOR", "1")
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawn watch");
-        let (tx, rx) = channel();
-        let out = child.stdout.take().expect("stdout");
-        let err = child.stderr.take().expect("stderr");
-        let tx2 = tx.clone();
-        std::thread::spawn(move || BufReader::new(out).lines().map_while(Result::ok).for_each(|l| drop(tx.send(l))));
-        std::thread::spawn(move || BufReader::new(err).lines().map_while(Result::ok).for_each(|l| drop(tx2.send(l))));
+        let (child, rx) = common::spawn_watch(p, scene);
         Watch { child, lines: rx, log: Default::default() }
     }
 

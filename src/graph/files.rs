@@ -112,38 +112,39 @@ pub fn contained(root: &Path, rel: &str) -> Result<PathBuf, PathProblem> {
 /// `root`. The final component may be a link: writes replace it rather than follow it.
 pub fn check_links(root: &Path, path: &Path) -> Result<(), PathProblem> {
     let Some(parent) = path.parent() else { return Ok(()) };
-    let Ok(real_root) = deepest_existing(root).and_then(|(p, rest)| Ok(p.canonicalize()?.join(rest))) else {
-        return Ok(());
-    };
-    let Ok((existing, rest)) = deepest_existing(parent) else { return Ok(()) };
-    let Ok(real) = existing.canonicalize() else { return Ok(()) };
-    let real = real.join(rest);
-    if real.starts_with(&real_root) {
+    let real = resolve(parent);
+    if real.starts_with(resolve(root)) {
         Ok(())
     } else {
         Err(PathProblem::Escapes(real))
     }
 }
 
-/// The longest prefix of `path` that exists, and the rest.
-fn deepest_existing(path: &Path) -> io::Result<(PathBuf, PathBuf)> {
-    let mut existing = path.to_path_buf();
-    let mut rest = Vec::new();
+/// `p` made absolute and resolved as the operating system would: the longest part that
+/// exists has its links and `..` resolved; the rest is taken as written (`.` dropped, `..`
+/// going up).
+pub fn resolve(p: &Path) -> PathBuf {
+    let p = if p.is_absolute() { p.to_path_buf() } else { std::env::current_dir().unwrap_or_default().join(p) };
+    let mut existing = p.clone();
+    let mut rest: Vec<std::ffi::OsString> = Vec::new();
     loop {
-        if std::fs::symlink_metadata(&existing).is_ok() {
-            let rest: PathBuf = rest.iter().rev().collect();
-            let existing = if existing.as_os_str().is_empty() { PathBuf::from(".") } else { existing };
-            return Ok((existing, rest));
+        if let Ok(real) = existing.canonicalize() {
+            let mut out = real;
+            for c in rest.iter().rev() {
+                match c.to_str() {
+                    Some("..") => {
+                        out.pop();
+                    }
+                    Some(".") => {}
+                    _ => out.push(c),
+                }
+            }
+            return out;
         }
-        match (existing.file_name().map(|n| n.to_os_string()), existing.parent()) {
-            (Some(name), Some(parent)) => {
-                rest.push(name);
-                existing = parent.to_path_buf();
-            }
-            _ => {
-                let rest: PathBuf = rest.iter().rev().collect();
-                return Ok((PathBuf::from("."), rest));
-            }
+        let Some(last) = existing.components().next_back().map(|c| c.as_os_str().to_os_string()) else { return p };
+        rest.push(last);
+        if !existing.pop() {
+            return p;
         }
     }
 }

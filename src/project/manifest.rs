@@ -132,13 +132,13 @@ struct SpannedPaths {
 fn check_paths(root: &Path, file: &Path, text: &str) -> Result<(), Diagnostics> {
     let spanned: SpannedManifest = toml::from_str(text).unwrap_or_default();
     let defaults = Paths::default();
-    let abs_root = absolute(root);
+    let abs_root = crate::graph::files::resolve(root);
     let entry = |name: &'static str, value: &Option<toml::Spanned<PathBuf>>, default: &PathBuf| {
         let (path, span) = match value {
             Some(v) => (v.get_ref().clone(), Some(v.span())),
             None => (default.clone(), None),
         };
-        (name, absolute(&abs_root.join(&path)), path, span)
+        (name, crate::graph::files::resolve(&abs_root.join(&path)), path, span)
     };
     let written = [
         entry("outputs", &spanned.paths.outputs, &defaults.outputs),
@@ -194,34 +194,6 @@ fn check_paths(root: &Path, file: &Path, text: &str) -> Result<(), Diagnostics> 
         })
         .collect();
     Err(Diagnostics::new(items, sources))
-}
-
-/// `p` made absolute and resolved as the operating system would: the part that exists has
-/// its links and `..` resolved; the rest is taken as written.
-fn absolute(p: &Path) -> PathBuf {
-    let p = if p.is_absolute() { p.to_path_buf() } else { std::env::current_dir().unwrap_or_default().join(p) };
-    let mut existing = p.clone();
-    let mut rest: Vec<std::ffi::OsString> = Vec::new();
-    loop {
-        if let Ok(real) = existing.canonicalize() {
-            let mut out = real;
-            for c in rest.iter().rev() {
-                match c.to_str() {
-                    Some("..") => {
-                        out.pop();
-                    }
-                    Some(".") => {}
-                    _ => out.push(c),
-                }
-            }
-            return out;
-        }
-        let Some(last) = existing.components().next_back().map(|c| c.as_os_str().to_os_string()) else { return p };
-        rest.push(last);
-        if !existing.pop() {
-            return p;
-        }
-    }
 }
 
 #[cfg(test)]

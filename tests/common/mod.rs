@@ -187,3 +187,25 @@ pub fn failed_build(name: &str, scene: &str, extra: &[(&str, &[u8])]) -> String 
     assert!(!p.path("out").exists(), "{name}: a failed build wrote outputs");
     run.stderr()
 }
+
+/// Starts `tessera watch SCENE` in `p` and a reader of its stdout and stderr lines (in the
+/// order they arrive, the two streams interleaved).
+pub fn spawn_watch(p: &Project, scene: &str) -> (std::process::Child, std::sync::mpsc::Receiver<String>) {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let mut child = Command::new(bin())
+        .args(["watch", scene])
+        .current_dir(p.dir.path())
+        .env("NO_COLOR", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn watch");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let out = child.stdout.take().expect("stdout");
+    let err = child.stderr.take().expect("stderr");
+    let tx2 = tx.clone();
+    std::thread::spawn(move || BufReader::new(out).lines().map_while(Result::ok).for_each(|l| drop(tx.send(l))));
+    std::thread::spawn(move || BufReader::new(err).lines().map_while(Result::ok).for_each(|l| drop(tx2.send(l))));
+    (child, rx)
+}
