@@ -138,15 +138,14 @@ impl Cache {
             if name == MARKER || files::is_temporary(&name) {
                 continue;
             }
-            if !(is_shard_name(&name) && e.file_type().is_ok_and(|t| t.is_dir())) {
+            if !is_shard(&e) {
                 return Some(e.path());
             }
             let Ok(inner) = std::fs::read_dir(e.path()) else { return Some(e.path()) };
             for f in inner {
                 let Ok(f) = f else { return Some(e.path()) };
                 let fname = f.file_name().to_string_lossy().into_owned();
-                let ok = f.file_type().is_ok_and(|t| t.is_file())
-                    && (files::is_temporary(&fname) || (is_entry_name(&fname) && has_entry_header(&f.path())));
+                let ok = f.file_type().is_ok_and(|t| t.is_file()) && files::is_temporary(&fname) || is_entry(&f);
                 if !ok {
                     return Some(f.path());
                 }
@@ -177,7 +176,7 @@ impl Cache {
             if prefix == MARKER || files::is_temporary(&prefix) {
                 continue;
             }
-            if !(is_shard_name(&prefix) && shard.file_type().is_ok_and(|t| t.is_dir())) {
+            if !is_shard(&shard) {
                 report.foreign.push(shard.path());
                 continue;
             }
@@ -192,7 +191,7 @@ impl Cache {
                     continue; // a live build's
                 }
                 let path = entry.path();
-                if !(entry.file_type().is_ok_and(|t| t.is_file()) && is_entry_name(&name) && has_entry_header(&path)) {
+                if !is_entry(&entry) {
                     report.foreign.push(path);
                     continue;
                 }
@@ -231,6 +230,18 @@ fn not_a_cache(dir: &Path, foreign: &Path) -> String {
 
 fn is_marker(path: &Path) -> bool {
     std::fs::read(path).is_ok_and(|b| b.starts_with(b"Signature: 8a477f597d28d172789f06886806bc55"))
+}
+
+/// A shard directory of the cache's own format: two hex digits.
+fn is_shard(e: &std::fs::DirEntry) -> bool {
+    is_shard_name(&e.file_name().to_string_lossy()) && e.file_type().is_ok_and(|t| t.is_dir())
+}
+
+/// An entry of the cache's own format: a file named by 62 hex digits with an entry header.
+fn is_entry(e: &std::fs::DirEntry) -> bool {
+    e.file_type().is_ok_and(|t| t.is_file())
+        && is_entry_name(&e.file_name().to_string_lossy())
+        && has_entry_header(&e.path())
 }
 
 fn is_hex(s: &str) -> bool {
