@@ -142,7 +142,7 @@ fn main() -> ExitCode {
     let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
     let result = match &cli.command {
         Command::Explain { kind, markdown } => explain(kind.as_deref(), *markdown),
-        Command::Fmt { paths, check } => fmt(&cwd, paths, *check),
+        Command::Fmt { paths, check } => fmt(&cwd, paths, *check, cli.max_memory),
         Command::Similar { .. } | Command::Compare { .. } => texture_tool(&cli.command),
         _ => Project::open(&cwd).map_err(|f| print_failed(&f)).and_then(|mut p| {
             p.sets = cli.sets.clone();
@@ -469,19 +469,16 @@ fn explain(kind: Option<&str>, markdown: bool) -> CmdResult {
     }
 }
 
-fn fmt(cwd: &Path, paths: &[PathBuf], check: bool) -> CmdResult {
-    let files = if paths.is_empty() {
-        match Project::open(cwd).and_then(|p| p.scene_files(&[])) {
-            Ok(f) => f,
-            Err(f) => return Err(print_failed(&f)),
-        }
-    } else {
-        let p = Project::open(cwd).map_err(|f| print_failed(&f))?;
-        p.scene_files(paths).map_err(|f| print_failed(&f))?
-    };
+fn fmt(cwd: &Path, paths: &[PathBuf], check: bool, max_memory: Option<u64>) -> CmdResult {
+    let mut p = Project::open(cwd).map_err(|f| print_failed(&f))?;
+    if let Some(m) = max_memory {
+        p.set_budget(tessera::graph::Budget::new(m));
+    }
+    let max_file = p.budget.max_file();
+    let files = p.scene_files(paths).map_err(|f| print_failed(&f))?;
     let mut bad = false;
     for file in files {
-        let text = match std::fs::read_to_string(&file) {
+        let text = match tessera::graph::world::read_regular_text(&file, max_file) {
             Ok(t) => t,
             Err(e) => {
                 eprintln!("error: cannot read {}: {e}", file.display());

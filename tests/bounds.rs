@@ -313,3 +313,59 @@ fn a_huge_sample_resize_is_refused_at_resize() {
     assert!(took < Duration::from_secs(5), "took {took:?}");
     assert!(!p.path("out").exists());
 }
+
+#[test]
+fn decoding_an_image_is_held_to_the_budget_by_every_kind() {
+    // A 4096 x 4096 RGBA PNG of one colour is a few kilobytes and decodes to 640 MiB of
+    // working memory: the header is read and the decode refused before it allocates.
+    let img = tessera::raster::io::encode_png(&tessera::raster::Image::filled(4096, 4096, 4, 0.5), 8).expect("png");
+    assert!(img.len() < 1 << 20, "{} bytes", img.len());
+    let scenes = [
+        ("sample", "sample s {\n  image = \"big.png\"\n}\noutput \"s.png\" {\n  from = s\n}\n"),
+        ("map", "map m {\n  from = image(path = \"big.png\")\n  size = 8 x 8\n}\noutput \"m.png\" {\n  from = m\n}\n"),
+        ("library", "library l {\n  dir = \"lib\"\n}\nsample t {\n  image = \"small.png\"\n}\nsample s {\n  from = similar(l, to = t)\n}\noutput \"s.png\" {\n  from = s\n}\n"),
+    ];
+    for (kind, scene) in scenes {
+        let p = Project::new(&[("scene.tess", scene)]);
+        p.write_bytes("big.png", &img);
+        p.write_bytes("lib/big.png", &img);
+        let small = tessera::raster::io::encode_png(&tessera::raster::Image::filled(8, 8, 3, 0.5), 8).expect("png");
+        p.write_bytes("small.png", &small);
+        let (run, _) =
+            run_within(p.dir.path(), &["build", "scene.tess", "--max-memory", "64MiB"], Duration::from_secs(30));
+        run.failed();
+        let err = flat(&run);
+        assert!(
+            err.contains(
+                "the 4096 x 4096 image (4 channel(s)) needs about 640.0 MiB but the memory budget is 64.0 MiB"
+            ),
+            "{kind}: {err}"
+        );
+        assert!(err.contains("big.png"), "{kind}: {err}");
+        // Under a budget that holds it, the same file builds.
+        if kind == "map" {
+            p.tessera(&["build", "scene.tess", "--max-memory", "2GiB"]).ok();
+        }
+    }
+}
+
+#[test]
+fn the_manifest_and_fmt_read_only_regular_files_of_bounded_size() {
+    // Was: the manifest and `fmt` read whatever they were given, whole; an unreadable
+    // manifest was silently ignored.
+    let p = Project::new(&[("scenes/a.tess", "scene {\n  seed = 1\n}\n")]);
+    p.write_bytes("tessera.toml", &[0xff, 0xfe, 0x00]);
+    let run = p.tessera(&["build"]);
+    run.failed();
+    assert!(flat(&run).contains("not UTF-8 text"), "{}", run.stderr());
+    p.write("tessera.toml", &format!("# {}\n", "x".repeat(2 << 20)));
+    let run = p.tessera(&["build"]);
+    run.failed();
+    assert!(flat(&run).contains("is too large"), "{}", run.stderr());
+    std::fs::remove_file(p.path("tessera.toml")).unwrap();
+    p.write("scenes/big.tess", &format!("# {}\n", "x".repeat(300 * 1024)));
+    let run = p.tessera(&["fmt", "--max-memory", "400KiB"]);
+    run.failed();
+    let err = flat(&run);
+    assert!(err.contains("big.tess") && err.contains("is too large"), "{err}");
+}

@@ -77,46 +77,11 @@ impl World {
 
     /// Refuses what is not a regular file of at most `max_file` bytes.
     fn admit(&self, m: &std::fs::Metadata) -> io::Result<()> {
-        let ft = m.file_type();
-        if ft.is_dir() {
-            return Err(io::Error::new(io::ErrorKind::InvalidInput, "is a directory, not a file"));
-        }
-        if !ft.is_file() {
-            return Err(io::Error::new(
-                io::ErrorKind::InvalidInput,
-                "is not a regular file (a device, FIFO or socket); tessera reads only regular files",
-            ));
-        }
-        if m.len() > self.max_file {
-            return Err(self.too_large(Some(m.len())));
-        }
-        Ok(())
+        admit(m, self.max_file)
     }
 
-    fn too_large(&self, len: Option<u64>) -> io::Error {
-        let size = len.map(|l| format!(" ({})", super::budget::Bytes(l as f64))).unwrap_or_default();
-        io::Error::new(
-            io::ErrorKind::InvalidInput,
-            format!(
-                "is too large{size}: input files may hold at most {}, a quarter of the memory budget (raise it with `--max-memory` or `[limits] max_memory` in tessera.toml)",
-                super::budget::Bytes(self.max_file as f64)
-            ),
-        )
-    }
-
-    /// Reads a whole regular file, never more than `max_file` bytes of it (the file may grow
-    /// between the check and the read).
     fn read_capped(&self, path: &Path) -> io::Result<Vec<u8>> {
-        use std::io::Read;
-        let file = std::fs::File::open(path)?;
-        let m = file.metadata()?;
-        self.admit(&m)?;
-        let mut bytes = Vec::with_capacity(m.len() as usize);
-        file.take(self.max_file.saturating_add(1)).read_to_end(&mut bytes)?;
-        if bytes.len() as u64 > self.max_file {
-            return Err(self.too_large(None));
-        }
-        Ok(bytes)
+        read_regular(path, self.max_file)
     }
 
     /// The file's bytes, read at most once per build.
@@ -171,6 +136,59 @@ impl World {
         self.read(path)?;
         Ok(self.entries.lock().expect("world lock")[path].hash)
     }
+}
+
+/// Refuses what is not a regular file of at most `max_file` bytes.
+fn admit(m: &std::fs::Metadata, max_file: u64) -> io::Result<()> {
+    let ft = m.file_type();
+    if ft.is_dir() {
+        return Err(io::Error::new(io::ErrorKind::InvalidInput, "is a directory, not a file"));
+    }
+    if !ft.is_file() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "is not a regular file (a device, FIFO or socket); tessera reads only regular files",
+        ));
+    }
+    if m.len() > max_file {
+        return Err(too_large(Some(m.len()), max_file));
+    }
+    Ok(())
+}
+
+fn too_large(len: Option<u64>, max_file: u64) -> io::Error {
+    let size = len.map(|l| format!(" ({})", super::budget::Bytes(l as f64))).unwrap_or_default();
+    io::Error::new(
+        io::ErrorKind::InvalidInput,
+        format!(
+            "is too large{size}: input files may hold at most {}, a quarter of the memory budget (raise it with `--max-memory` or `[limits] max_memory` in tessera.toml)",
+            super::budget::Bytes(max_file as f64)
+        ),
+    )
+}
+
+/// Reads a whole regular file, never more than `max_file` bytes of it (the file may grow
+/// between the check and the read). For the few reads that are not build inputs (the
+/// manifest, `fmt`, the texture tools); build inputs go through [`World::read`].
+pub fn read_regular(path: &Path, max_file: u64) -> io::Result<Vec<u8>> {
+    use std::io::Read;
+    // Checked before opening: opening a FIFO would wait for a writer.
+    admit(&std::fs::metadata(path)?, max_file)?;
+    let file = std::fs::File::open(path)?;
+    let m = file.metadata()?;
+    admit(&m, max_file)?;
+    let mut bytes = Vec::with_capacity(m.len() as usize);
+    file.take(max_file.saturating_add(1)).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max_file {
+        return Err(too_large(None, max_file));
+    }
+    Ok(bytes)
+}
+
+/// [`read_regular`] for UTF-8 text.
+pub fn read_regular_text(path: &Path, max_file: u64) -> io::Result<String> {
+    String::from_utf8(read_regular(path, max_file)?)
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, format!("not UTF-8 text: {}", e.utf8_error())))
 }
 
 #[cfg(test)]

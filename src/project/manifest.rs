@@ -12,6 +12,9 @@ use crate::lang::{Diagnostic, Diagnostics};
 
 pub const FILE_NAME: &str = "tessera.toml";
 
+/// A manifest is a few lines; anything near this size is not one.
+const MAX_MANIFEST_BYTES: u64 = 1 << 20;
+
 #[derive(Clone, Debug, Default, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
 pub struct Manifest {
@@ -88,7 +91,15 @@ pub fn find_root(start: &Path) -> Option<PathBuf> {
 /// Reads the manifest in `root`, or the defaults when there is none.
 pub fn load(root: &Path) -> Result<Manifest, Diagnostics> {
     let path = root.join(FILE_NAME);
-    let Ok(text) = std::fs::read_to_string(&path) else { return Ok(Manifest::default()) };
+    if !path.exists() {
+        return Ok(Manifest::default());
+    }
+    let text = crate::graph::world::read_regular_text(&path, MAX_MANIFEST_BYTES).map_err(|e| {
+        Diagnostics::new(
+            vec![Diagnostic::error(format!("cannot read {}: {e}", path.display())).with_code("tessera::manifest")],
+            SourceMap::default(),
+        )
+    })?;
     let manifest: Manifest = toml::from_str(&text).map_err(|e| {
         let mut sources = SourceMap::default();
         let id = sources.add(path.clone(), FILE_NAME.into(), Arc::from(text.as_str()));

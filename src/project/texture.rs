@@ -28,8 +28,11 @@ pub struct SimilarOptions {
 /// Reads an image as texture tools compare it: encoded (sRGB-like) values, all finite.
 /// EXR files hold linear values and are encoded first.
 pub fn read_texture(path: &Path) -> Result<Image, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read `{}`: {e}", path.display()))?;
-    let img = raster::io::decode(&bytes).map_err(|e| format!("cannot decode `{}`: {e}", path.display()))?;
+    let budget = crate::graph::Budget::from_machine();
+    let bytes = crate::graph::world::read_regular(path, budget.max_file())
+        .map_err(|e| format!("cannot read `{}`: {e}", path.display()))?;
+    let img =
+        crate::stages::decode_image(&bytes, budget).map_err(|e| format!("cannot decode `{}`: {e}", path.display()))?;
     Ok(if raster::io::is_exr(&bytes) { raster::color::image_linear_to_srgb(&img) } else { img })
 }
 

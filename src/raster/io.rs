@@ -98,11 +98,17 @@ fn decode_png(bytes: &[u8]) -> Result<Image, RasterError> {
 /// [`MAX_DECODE_SAMPLES`] before the decoder allocates anything. Too-short input is left
 /// for the decoder to report.
 fn check_png_header_size(bytes: &[u8]) -> Result<(), RasterError> {
-    let Some(ihdr) = bytes.get(8..26) else {
-        return Ok(());
-    };
+    match png_dimensions(bytes) {
+        Some((width, height, channels)) => check_samples(width, height, channels),
+        None => Ok(()),
+    }
+}
+
+/// Width, height and (expanded) channel count from a PNG's IHDR chunk.
+fn png_dimensions(bytes: &[u8]) -> Option<(usize, usize, usize)> {
+    let ihdr = bytes.get(8..26)?;
     if &ihdr[4..8] != b"IHDR" {
-        return Ok(());
+        return None;
     }
     let be32 = |s: &[u8]| u32::from_be_bytes([s[0], s[1], s[2], s[3]]) as usize;
     let (width, height) = (be32(&ihdr[8..12]), be32(&ihdr[12..16]));
@@ -112,7 +118,21 @@ fn check_png_header_size(bytes: &[u8]) -> Result<(), RasterError> {
         2 => 3,
         _ => 4, // RGBA, or palette which may expand to RGBA
     };
-    check_samples(width, height, channels)
+    Some((width, height, channels))
+}
+
+/// Width, height and channel count as the file's header states them, read without decoding
+/// any pixels, so a caller can hold the decode to a memory budget. `None` when the header
+/// cannot be read (the decoder then reports why).
+pub fn decode_dimensions(bytes: &[u8]) -> Option<(usize, usize, usize)> {
+    match sniff(bytes)? {
+        Format::Png => png_dimensions(bytes),
+        Format::Exr => {
+            let meta = x::MetaData::read_from_buffered(Cursor::new(bytes), false).ok()?;
+            let header = meta.headers.iter().find(|h| !h.deep)?;
+            Some((header.layer_size.width(), header.layer_size.height(), header.channels.list.len()))
+        }
+    }
 }
 
 fn png_error_message(e: &ImageError) -> String {

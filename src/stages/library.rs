@@ -165,11 +165,12 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let key = serde_json::to_string(&params).expect("serialises");
     let mut nodes = Vec::with_capacity(files.len());
     let mut names = Vec::with_capacity(files.len());
+    let budget = p.budget;
     for f in &files {
         let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let shown = name.clone();
         let stage = FnStage::new("library.features", 1, key.clone(), move |cx| {
-            let img = decode_entry(&cx.file(0)?, &shown)?;
+            let img = decode_entry(&cx.file(0)?, &shown, budget)?;
             lib::features(&img, &params).map_err(|e| StageError::new(format!("`{shown}`: {e}")).in_file(0))
         });
         nodes.push(p.add(format!("library {} ({name})", d.name), stage, vec![], vec![(f.clone(), span)]));
@@ -185,9 +186,9 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
 
 /// A library file as the features see it: 8-bit-style encoded values (EXR is linear and
 /// is encoded to sRGB first), all values finite.
-fn decode_entry(bytes: &[u8], name: &str) -> Result<Image, StageError> {
-    let img =
-        raster::io::decode(bytes).map_err(|e| StageError::new(format!("cannot decode `{name}`: {e}")).in_file(0))?;
+fn decode_entry(bytes: &[u8], name: &str, budget: crate::graph::Budget) -> Result<Image, StageError> {
+    let img = super::decode_image(bytes, budget)
+        .map_err(|e| StageError::new(format!("cannot decode `{name}`: {e}")).in_file(0))?;
     let bad = img.data.iter().filter(|v| !v.is_finite()).count();
     if bad > 0 {
         return Err(StageError::new(format!("`{name}` holds {bad} NaN or infinite value(s)")).in_file(0));

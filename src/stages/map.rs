@@ -216,8 +216,9 @@ fn plan_source(p: &mut Planner, d: &Decl, call: &Call, w: usize, h: usize) -> No
     }
     let params = serde_json::json!({ "call": call, "w": w, "h": h, "seed": seed }).to_string();
     let call = Arc::new(call.clone());
+    let budget = p.budget;
     let stage = FnStage::new("map.source", 1, params, move |cx| {
-        evaluate(&call, w, h, seed, cx).map_err(|e| match e.prop {
+        evaluate(&call, w, h, seed, budget, cx).map_err(|e| match e.prop {
             // Parameter errors from the algorithms name a `from(...)` argument.
             None if e.file.is_none() => e.at_prop("from"),
             _ => e,
@@ -226,7 +227,14 @@ fn plan_source(p: &mut Planner, d: &Decl, call: &Call, w: usize, h: usize) -> No
     p.add(format!("map {}", d.name), stage, inputs, files)
 }
 
-fn evaluate(call: &Call, w: usize, h: usize, seed: u64, cx: &RunCx) -> Result<Image, StageError> {
+fn evaluate(
+    call: &Call,
+    w: usize,
+    h: usize,
+    seed: u64,
+    budget: crate::graph::Budget,
+    cx: &RunCx,
+) -> Result<Image, StageError> {
     let a = &call.args;
     let f32s = |v: [f64; 2]| [v[0] as f32, v[1] as f32];
     let center =
@@ -235,7 +243,7 @@ fn evaluate(call: &Call, w: usize, h: usize, seed: u64, cx: &RunCx) -> Result<Im
     match call.name.as_str() {
         "image" => {
             let bytes = cx.file(0)?;
-            let img = raster::io::decode(&bytes)
+            let img = super::decode_image(&bytes, budget)
                 .map_err(|e| StageError::new(format!("cannot decode the image: {e}")).in_file(0))?;
             let field = match a.enumeration("channel") {
                 "vector" => m::from_image_vector(&img),

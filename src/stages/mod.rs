@@ -174,6 +174,22 @@ impl Planner<'_> {
     }
 }
 
+/// Peak bytes per decoded sample: the decoder's own buffer (up to 16 bits), the planar f32
+/// image and one converted copy.
+const DECODE_BYTES_PER_SAMPLE: f64 = 10.0;
+
+/// Decodes an image file after holding what its header says decoding will allocate to the
+/// budget: a small file can unpack to gigabytes. Every kind decodes through here.
+pub fn decode_image(bytes: &[u8], budget: Budget) -> Result<crate::raster::Image, String> {
+    if let Some((w, h, c)) = crate::raster::io::decode_dimensions(bytes) {
+        let need = w as f64 * h as f64 * c as f64 * DECODE_BYTES_PER_SAMPLE;
+        budget.check(need, &format!("the {w} x {h} image ({c} channel(s))")).map_err(|m| {
+            format!("{m}; use a smaller image, or raise the budget with `--max-memory` or `[limits] max_memory` in tessera.toml")
+        })?;
+    }
+    crate::raster::io::decode(bytes).map_err(|e| e.to_string())
+}
+
 /// Plans a resolved scene under the machine's default budget (see [`plan_with`]).
 pub fn plan(scene: &Scene) -> Result<Plan, Vec<Diagnostic>> {
     plan_with(scene, &PlanOptions::default())

@@ -89,7 +89,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
                 .with_label(d.name_span, "give it an `image`, a `from` or a `structure`"));
         }
     };
-    let prep = Prepare::of(d)?;
+    let prep = Prepare::of(d, p.budget)?;
     if let Some((w, h)) = prep.resize {
         p.check_pixels(d, d, "resize", (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
     }
@@ -102,7 +102,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
 fn plan_similar(p: &mut Planner, d: &Decl, call: &crate::lang::ir::Call) -> Result<NodeId, Diagnostic> {
     let (query, files) = super::library::plan_similar(p, d, call)?;
     p.parts.insert((d.name.clone(), "ranking"), query);
-    let prep = Prepare::of(d)?;
+    let prep = Prepare::of(d, p.budget)?;
     if let Some((w, h)) = prep.resize {
         p.check_pixels(d, d, "resize", (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
     }
@@ -126,6 +126,7 @@ const RESIZE_BYTES_PER_PIXEL: f64 = 48.0;
 /// How an image file becomes a sample: decode, linearise, crop, resize, colour space.
 #[derive(Clone)]
 struct Prepare {
+    budget: crate::graph::Budget,
     crop: Option<[usize; 4]>,
     resize: Option<(u32, u32)>,
     filter: raster::resample::Filter,
@@ -133,7 +134,7 @@ struct Prepare {
 }
 
 impl Prepare {
-    fn of(d: &Decl) -> Result<Prepare, Diagnostic> {
+    fn of(d: &Decl, budget: crate::graph::Budget) -> Result<Prepare, Diagnostic> {
         let props = &d.props;
         let crop = match props.opt_numbers("crop") {
             None => None,
@@ -155,12 +156,12 @@ impl Prepare {
             _ => raster::resample::Filter::Bicubic,
         };
         let color = props.enumeration("color").to_string();
-        Ok(Prepare { crop, resize, filter, color })
+        Ok(Prepare { budget, crop, resize, filter, color })
     }
 
     /// `file` is the index of the file the bytes came from, for blame.
     fn apply(&self, bytes: &[u8], file: usize) -> Result<Image, StageError> {
-        let img = raster::io::decode(bytes)
+        let img = super::decode_image(bytes, self.budget)
             .map_err(|e| StageError::new(format!("cannot decode the image: {e}")).in_file(file))?;
         let bad = img.data.iter().filter(|v| !v.is_finite()).count();
         if bad > 0 {

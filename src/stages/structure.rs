@@ -278,11 +278,12 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             EllipseFit::Polygon
         },
     };
+    let budget = p.budget;
     let analyse = FnStage::new("structure.analyse", 1, serde_json::to_string(&config).expect("config"), move |cx| {
         let bytes = cx.file(0)?;
         let s = if raster::io::sniff(&bytes).is_some() {
             // A painted label image: one colour per region.
-            let img = raster::io::decode(&bytes)
+            let img = super::decode_image(&bytes, budget)
                 .map_err(|e| StageError::new(format!("cannot decode the label image: {e}")).in_file(0))?;
             let ids = colour_ids(&img);
             analyse_label_image(&ids, img.width, img.height, 1.0, &config)
