@@ -148,6 +148,25 @@ fn numbers_beyond_f32_are_refused_as_written() {
 }
 
 #[test]
+fn numbers_that_round_to_zero_in_f32_are_refused_as_written() {
+    // Was: `1e-50` became 0 silently, so a property documented as positive got 0.
+    for number in ["1e-50", "-1e-40", "1e-300"] {
+        let scene = format!("map a {{ from = constant({number}) }}\noutput \"a.png\" {{ from = a }}\n");
+        let err = failed_build("tiny", &scene, &[]);
+        assert!(err.contains(&format!("`{number}` is too small: it rounds to 0 in 32-bit floats")), "{err}");
+        assert_eq!(location(&err), "scene.tess:1:25");
+    }
+    // Zero itself, and the smallest normal float, are fine.
+    for number in ["0", "0.0", "1.2e-38"] {
+        let p = Project::new(&[(
+            "scene.tess",
+            &format!("map a {{ from = constant({number}) }}\noutput \"a.png\" {{ from = a }}\n"),
+        )]);
+        p.tessera(&["build", "scene.tess"]).ok();
+    }
+}
+
+#[test]
 fn an_empty_output_name_is_named() {
     let err = failed_build("empty_output", "map a { from = constant(1) }\noutput \"\" { from = a }\n", &[]);
     assert!(err.contains("`output` needs a file name"), "{err}");

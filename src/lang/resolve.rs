@@ -533,6 +533,15 @@ impl<'a> Checker<'a> {
                     );
                     return None;
                 }
+                if x != 0.0 && (x.abs() as f32) < f32::MIN_POSITIVE {
+                    self.errors.push(
+                        Diagnostic::error(format!("`{text}` is too small: it rounds to 0 in 32-bit floats"))
+                            .with_code("tessera::range")
+                            .with_label(v.span, "below the smallest normal 32-bit float (about 1.2e-38)")
+                            .with_help("write `0` if zero is meant"),
+                    );
+                    return None;
+                }
                 self.in_range(x, *range, *unit, v.span)
             }
             (Ty::Int(lo, hi), ValueKind::Number { text, unit: None, .. }) => {
