@@ -437,7 +437,7 @@ fn texture_tool(command: &Command) -> CmdResult {
 }
 
 fn explain(kind: Option<&str>, markdown: bool) -> CmdResult {
-    let registry = tessera::stages::registry();
+    let registry = tessera::kinds::registry();
     if markdown {
         for k in &registry {
             println!("{}", lang::schema::markdown(k));

@@ -56,7 +56,7 @@ fn mutate(src: &str, state: &mut u64) -> String {
 #[test]
 fn mutated_scenes_never_panic() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let registry = tessera::stages::registry();
+    let registry = tessera::kinds::registry();
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
     let mut compiled = 0;
     for name in ["masks", "fields", "wall"] {
@@ -67,7 +67,7 @@ fn mutated_scenes_never_panic() {
             let result = std::panic::catch_unwind(|| {
                 let _ = lang::fmt::format_source(&text);
                 if let Ok(scene) = lang::compile(Path::new("scene.tess"), &Mem(text.clone()), &opts) {
-                    let _ = tessera::stages::plan(&scene);
+                    let _ = tessera::kinds::plan(&scene);
                     return true;
                 }
                 false

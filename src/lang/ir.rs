@@ -1,5 +1,5 @@
 //! The typed scene: declarations with every property checked, converted to canonical units
-//! and defaulted. This is what `stages/` plans from.
+//! and defaulted. This is what `kinds/` plans from.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;

@@ -1,7 +1,7 @@
 //! The typed schema of declaration kinds: every property's type, default and doc line.
 //!
 //! The language knows how to check a declaration against a `KindSpec`, but not which kinds
-//! exist: each module in `stages/` declares its kind's spec next to the code that plans its
+//! exist: each module in `kinds/` declares its kind's spec next to the code that plans its
 //! stages, and the registry is handed to the resolver. Adding a kind is one file.
 
 /// How a declaration of this kind is named.

@@ -7,8 +7,8 @@ use serde::Serialize;
 use super::{Built, Failed, Project};
 use crate::golden::{self, Tolerance};
 use crate::graph;
+use crate::kinds::OutputFormat;
 use crate::raster;
-use crate::stages::OutputFormat;
 
 /// Default tolerance on numbers in text outputs (JSON, SVG), which are written rounded to 1e-6.
 const TEXT_TOLERANCE: f64 = 2e-6;

@@ -19,8 +19,8 @@ pub use show::{graph_dot, graph_text, timings_table};
 pub use watch::{watch, WatchEvent};
 
 use crate::graph::{self, files, Budget, Cache, Executor, Key, MemoryCache, Report, World};
+use crate::kinds::{self, Bytes, Plan, PlannedOutput};
 use crate::lang::{self, Diagnostic, Diagnostics, Scene};
-use crate::stages::{self, Bytes, Plan, PlannedOutput};
 
 /// An open scene repository.
 pub struct Project {
@@ -134,10 +134,10 @@ impl Project {
 
     /// Parses, resolves and plans a scene.
     pub fn compile(&self, path: &Path) -> Result<(Scene, Plan), Failed> {
-        let registry = stages::registry();
+        let registry = kinds::registry();
         let opts = lang::Options { sets: &self.sets, registry: &registry };
         let scene = lang::compile(path, &WorldLoader(&self.world), &opts)?;
-        match stages::plan_with(&scene, &stages::PlanOptions { budget: self.budget }) {
+        match kinds::plan_with(&scene, &kinds::PlanOptions { budget: self.budget }) {
             Ok(plan) => Ok((scene, plan)),
             Err(errors) => Err(Diagnostics::new(errors, scene.sources).into()),
         }

@@ -3,7 +3,7 @@
 use std::fmt::Write;
 
 use crate::graph::{Cache, Key, Report, Status};
-use crate::stages::Plan;
+use crate::kinds::Plan;
 
 /// The DAG as indented text, one node per line with its inputs and cache state.
 pub fn graph_text(plan: &Plan, keys: &[Key], cache: &Cache) -> String {

@@ -32,7 +32,7 @@ pub fn read_texture(path: &Path) -> Result<Image, String> {
     let bytes = crate::graph::world::read_regular(path, budget.max_file())
         .map_err(|e| format!("cannot read `{}`: {e}", path.display()))?;
     let img =
-        crate::stages::decode_image(&bytes, budget).map_err(|e| format!("cannot decode `{}`: {e}", path.display()))?;
+        crate::kinds::decode_image(&bytes, budget).map_err(|e| format!("cannot decode `{}`: {e}", path.display()))?;
     Ok(if raster::io::is_exr(&bytes) { raster::color::image_linear_to_srgb(&img) } else { img })
 }
 
@@ -90,7 +90,7 @@ pub fn similar(dir: &Path, target: &Path, o: &SimilarOptions) -> Result<String, 
     let width = names.iter().map(|n| n.len()).max().unwrap_or(5).max(5);
     let mut out = format!("{:<4}  {:<width$}  {:>8}", "rank", "entry", "distance");
     for a in &axes {
-        out.push_str(&format!("  {:>12}", crate::stages::axis_name(a)));
+        out.push_str(&format!("  {:>12}", crate::kinds::axis_name(a)));
     }
     out.push('\n');
     for (i, c) in chosen.iter().enumerate() {

@@ -1,7 +1,7 @@
 //! Structure-aware fuzzing of tessera on the stable toolchain.
 //!
 //! Cases are generated from a seed and an index, so any case can be regenerated from its
-//! number alone: `scene` writes scene text from the kinds' real schemas (`stages::registry()`),
+//! number alone: `scene` writes scene text from the kinds' real schemas (`kinds::registry()`),
 //! `mutate` corrupts the bundled scenes token by token, `files` writes structure JSON, label
 //! images, PNG and EXR inputs (valid, odd and corrupt) with a small scene that reads them.
 //! `runner` drives each case through parse → resolve → plan → build → emit with the library

@@ -24,7 +24,8 @@ use crate::synth::quilt::{
 };
 use crate::synth::surface::Plane;
 
-pub use super::layer_spec::SPEC;
+mod spec;
+pub use spec::SPEC;
 
 /// Which optional inputs a quilt stage has, in the order they are wired.
 #[derive(Clone, Copy, Default)]

@@ -4,14 +4,14 @@
 
 mod artifact;
 mod layer;
-mod layer_spec;
+
 mod library;
 mod map;
 mod output;
 mod sample;
 mod scene;
 mod structure;
-mod structure_spec;
+
 mod surface;
 
 use std::collections::HashMap;

@@ -39,7 +39,8 @@ use crate::synth::structure::voronoi::{self, Domain};
 use crate::synth::structure::{render, Ellipse, Labels, Mesh, Point};
 use crate::synth::surface::Plane;
 
-pub use super::structure_spec::SPEC;
+mod spec;
+pub use spec::SPEC;
 
 /// Generators ready for Lloyd (S1, S1e): the editable set, and how sampling went.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
