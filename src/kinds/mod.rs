@@ -25,18 +25,96 @@ use crate::graph::{Budget, Graph, Node, NodeId, Stage};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic, KindSpec, Scene};
 
-/// Every declaration kind the language accepts.
+/// A declaration kind: its schema, what a reference to it yields, how it plans its stages
+/// and which views an `output` may write of it. Each kind is one module and one entry of
+/// [`KINDS`]; the planner, `output`, `explain`, the docs and reference checking all go
+/// through the list, so nothing outside a kind's module names it.
+pub trait Kind: Sync {
+    fn spec(&self) -> &'static KindSpec;
+
+    /// Plans a checked declaration into stages; the node holding its result, if it has one.
+    /// Planning runs in dependency order, so what the declaration refers to is planned.
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic>;
+
+    /// Plans `output` of a declaration of this kind when the kind has views of its own
+    /// (a structure's labels, a layer's seams, a sample's ranking); `None` leaves it to
+    /// the generic encoding of the value the declaration exports.
+    fn plan_output(&self, _p: &mut Planner, _out: &OutputRequest) -> Result<Option<ViewNode>, Diagnostic> {
+        Ok(None)
+    }
+
+    /// Why a declaration of this kind, referred to `at`, has no value to use there (a
+    /// sample holding only a structure file has no image).
+    fn refuse_value(&self, _d: &Decl, _at: Span) -> Option<Diagnostic> {
+        None
+    }
+}
+
+/// Every declaration kind the language accepts, in the order `explain` lists them.
+pub static KINDS: &[&dyn Kind] = &[
+    &scene::Scene,
+    &sample::Sample,
+    &map::Map,
+    &surface::Surface,
+    &structure::Structure,
+    &layer::Layer,
+    &library::Library,
+    &output::Output,
+];
+
+/// The schemas of [`KINDS`], as the language checks scenes against them.
 pub fn registry() -> Vec<&'static KindSpec> {
-    vec![
-        &scene::SPEC,
-        &sample::SPEC,
-        &map::SPEC,
-        &surface::SPEC,
-        &structure::SPEC,
-        &layer::SPEC,
-        &library::SPEC,
-        &output::SPEC,
-    ]
+    KINDS.iter().map(|k| k.spec()).collect()
+}
+
+/// The kind named `name` (a resolved declaration's kind is always one of them).
+pub fn kind(name: &str) -> &'static dyn Kind {
+    *KINDS.iter().find(|k| k.spec().name == name).expect("resolved declarations have a known kind")
+}
+
+/// An `output` declaration's request to write a view of another declaration.
+pub struct OutputRequest<'a> {
+    /// The output declaration.
+    pub decl: &'a Decl,
+    /// The declaration it writes.
+    pub from: &'a str,
+    pub format: OutputFormat,
+    /// The `view` property as written (`auto` when absent).
+    pub view: &'a str,
+    /// The output file's extension, lower-case.
+    pub ext: &'a str,
+}
+
+/// A planned view: the node producing the file's bytes, and whether its values are
+/// identities compared exactly by the golden check.
+pub struct ViewNode {
+    pub node: NodeId,
+    pub exact: bool,
+}
+
+/// The colour space an image's values are in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ColorSpace {
+    Srgb,
+    Linear,
+    Lab,
+}
+
+crate::choices!(
+    /// The `color` property of samples.
+    pub COLOR_SPACES: ColorSpace { "srgb" => ColorSpace::Srgb, "linear" => ColorSpace::Linear, "lab" => ColorSpace::Lab }
+);
+
+/// What a planned declaration offers those that refer to it, beyond its result node.
+#[derive(Clone, Default)]
+pub struct Exports {
+    /// It is an image in this colour space.
+    pub image: Option<ColorSpace>,
+    /// It is a plane of this size, set at this span (absent: the scene's size).
+    pub plane: Option<((usize, usize), Option<Span>)>,
+    /// It holds a structure example: this file, named at this span.
+    pub example: Option<(PathBuf, Span)>,
 }
 
 /// Where to point when a node fails.
@@ -85,7 +163,7 @@ pub struct PlanOptions {
     pub budget: Budget,
 }
 
-pub(crate) struct Planner<'a> {
+pub struct Planner<'a> {
     pub scene: &'a Scene,
     pub budget: Budget,
     graph: Graph,
@@ -94,6 +172,7 @@ pub(crate) struct Planner<'a> {
     results: HashMap<String, NodeId>,
     /// Further named nodes of multi-stage declarations: (declaration, part) → node.
     parts: HashMap<(String, &'static str), NodeId>,
+    exports: HashMap<String, Exports>,
     outputs: Vec<PlannedOutput>,
     decl_index: usize,
 }
@@ -128,16 +207,33 @@ impl Planner<'_> {
     }
 
     /// The result of `name` where a value (an image, a map, a plane) is needed, `at` the
-    /// span that named it: a sample that holds only a structure file has none.
+    /// span that named it; its kind may refuse (see [`Kind::refuse_value`]).
     pub fn value(&self, name: &str, at: Span) -> Result<NodeId, Diagnostic> {
         let d = self.decl(name);
-        if d.kind == "sample" && d.props.get("image").is_none() && d.props.get("from").is_none() {
-            return Err(Diagnostic::error(format!("sample `{name}` holds only a structure file, not an image"))
-                .with_code("tessera::sample_image")
-                .with_label(at, "an image is needed here")
-                .with_help("give the sample an `image`, or use it as a structure's `from`"));
+        if let Some(refusal) = kind(d.kind).refuse_value(d, at) {
+            return Err(refusal);
         }
         Ok(self.result(name))
+    }
+
+    /// What the declaration being planned offers to later ones.
+    pub fn export(&mut self, d: &Decl) -> &mut Exports {
+        self.exports.entry(d.name.clone()).or_default()
+    }
+
+    /// What `name` (planned earlier) offers.
+    pub fn exports(&self, name: &str) -> Exports {
+        self.exports.get(name).cloned().unwrap_or_default()
+    }
+
+    /// The colour space of the image `name` (linear for data that is not an image).
+    pub fn color_space(&self, name: &str) -> ColorSpace {
+        self.exports(name).image.unwrap_or(ColorSpace::Linear)
+    }
+
+    /// The size of the plane `name` and where it was set (absent: the scene's size).
+    pub fn plane(&self, name: &str) -> ((usize, usize), Option<Span>) {
+        self.exports(name).plane.expect("a plane reference names a declaration exporting a plane")
     }
 
     pub fn decl(&self, name: &str) -> &Decl {
@@ -145,22 +241,21 @@ impl Planner<'_> {
     }
 
     /// Refuses a declaration whose raster of `w × h` pixels, at about `bytes_per_pixel` of
-    /// working memory each, cannot fit the budget. The size was set by `size_prop` of
-    /// `size_owner` (or, defaulted, by the scene's `size`); the diagnostic points there.
+    /// working memory each, cannot fit the budget. The size was written at `size_at` (absent:
+    /// defaulted from the scene's `size`); the diagnostic points there.
     pub fn check_pixels(
         &self,
         d: &Decl,
-        size_owner: &Decl,
-        size_prop: &str,
+        size_at: Option<Span>,
         (w, h): (usize, usize),
         bytes_per_pixel: f64,
     ) -> Result<(), Diagnostic> {
         let what = format!("{} `{}` at {w} x {h} pixels", d.kind, d.name);
         let Err(message) = self.budget.check(w as f64 * h as f64 * bytes_per_pixel, &what) else { return Ok(()) };
-        let scene_size = || self.scene.decls.iter().find(|s| s.kind == "scene").and_then(|s| s.props.span("size"));
-        let span = size_owner.props.span(size_prop).or_else(scene_size).unwrap_or(d.name_span);
+        let span = size_at.or(self.scene.size_span).unwrap_or(d.name_span);
         let mut diag = Diagnostic::error(message).with_code("tessera::budget").with_label(span, "this size");
-        if span != d.name_span && size_owner.name != d.name {
+        let inside = span.file == d.span.file && d.span.start <= span.start && span.end <= d.span.end;
+        if !inside {
             diag = diag.with_label(d.name_span, "needed by this declaration");
         }
         Err(diag.with_help(
@@ -206,33 +301,29 @@ pub fn plan_with(scene: &Scene, options: &PlanOptions) -> Result<Plan, Vec<Diagn
         blame: Vec::new(),
         results: HashMap::new(),
         parts: HashMap::new(),
+        exports: HashMap::new(),
         outputs: Vec::new(),
         decl_index: 0,
     };
     let mut errors = Vec::new();
+    let mut failed = std::collections::HashSet::new();
     let index: HashMap<&str, usize> = scene.decls.iter().enumerate().map(|(i, d)| (d.name.as_str(), i)).collect();
     for d in scene.topo_order() {
         // A declaration that depends on a failed one is not planned (its error would only repeat).
-        if d.deps.iter().any(|dep| !p.results.contains_key(dep) && scene.decl(dep).is_some_and(|x| x.kind != "scene")) {
+        if d.deps.iter().any(|dep| failed.contains(dep.as_str())) {
+            failed.insert(d.name.as_str());
             continue;
         }
         p.decl_index = index[d.name.as_str()];
-        let r = match d.kind {
-            "scene" => continue,
-            "sample" => sample::plan(&mut p, d),
-            "map" => map::plan(&mut p, d),
-            "surface" => surface::plan(&mut p, d),
-            "structure" => structure::plan(&mut p, d),
-            "layer" => layer::plan(&mut p, d),
-            "library" => library::plan(&mut p, d),
-            "output" => output::plan(&mut p, d),
-            k => unreachable!("kind `{k}` is in the registry but has no planner"),
-        };
-        match r {
-            Ok(node) => {
+        match kind(d.kind).plan(&mut p, d) {
+            Ok(Some(node)) => {
                 p.results.insert(d.name.clone(), node);
             }
-            Err(e) => errors.push(e),
+            Ok(None) => {}
+            Err(e) => {
+                failed.insert(d.name.as_str());
+                errors.push(e);
+            }
         }
     }
     errors.extend(output_collisions(&p.outputs));

@@ -1,11 +1,13 @@
 //! `scene { seed size }`: settings shared by every declaration.
 
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty};
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Setting, Ty};
 
 pub static SPEC: KindSpec = KindSpec {
     name: "scene",
     doc: "Scene-wide settings. At most one per scene (imports included).",
     naming: Naming::Anonymous,
+    produces: &[],
+    settings: &[(Setting::Seed, "seed"), (Setting::Size, "size")],
     props: &[
         PropSpec {
             name: "seed",
@@ -21,3 +23,20 @@ pub static SPEC: KindSpec = KindSpec {
         },
     ],
 };
+
+/// The scene kind: settings only, read by the language when it resolves the scene.
+pub struct Scene;
+
+impl super::Kind for Scene {
+    fn spec(&self) -> &'static KindSpec {
+        &SPEC
+    }
+
+    fn plan(
+        &self,
+        _p: &mut super::Planner,
+        _d: &crate::lang::Decl,
+    ) -> Result<Option<crate::graph::NodeId>, crate::lang::Diagnostic> {
+        Ok(None)
+    }
+}

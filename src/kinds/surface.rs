@@ -2,7 +2,7 @@
 
 use super::{FnStage, Planner};
 use crate::graph::{NodeId, StageError};
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty};
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Value};
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::Image;
 use crate::synth::surface::Plane;
@@ -11,11 +11,13 @@ pub static SPEC: KindSpec = KindSpec {
     name: "surface",
     doc: "A target surface. Today a plane: a rectangle of pixels, optionally with an occupancy map.",
     naming: Naming::Ident,
+    produces: &[Value::Plane],
+    settings: &[],
     props: &[
         PropSpec { name: "plane", ty: Ty::Size, default: Default::SceneSize, doc: "Size of the plane in pixels." },
         PropSpec {
             name: "occupancy",
-            ty: Ty::Ref(&["map"]),
+            ty: Ty::Ref(&[Value::Map]),
             default: Default::Absent,
             doc:
                 "A scalar map: 1 where detail goes, 0 where it must not (windows, holes). Must match the plane's size.",
@@ -27,7 +29,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let (w, h) = d.props.size("plane");
     let (w, h) = (w as usize, h as usize);
     // The occupancy plane (f32), and the copy the stage makes of its map.
-    p.check_pixels(d, d, "plane", (w, h), 8.0)?;
+    p.check_pixels(d, d.props.span("plane"), (w, h), 8.0)?;
     let mut inputs = Vec::new();
     if let Some(m) = d.props.reference("occupancy") {
         inputs.push(p.result(m));
@@ -54,4 +56,20 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         Ok(Plane { occupancy: (*occ).clone() })
     });
     Ok(p.add(format!("surface {}", d.name), stage, inputs, Vec::new()))
+}
+
+/// The surface kind: a target plane and its occupancy.
+pub struct Surface;
+
+impl super::Kind for Surface {
+    fn spec(&self) -> &'static crate::lang::KindSpec {
+        &SPEC
+    }
+
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
+        let node = plan(p, d)?;
+        let (w, h) = d.props.size("plane");
+        p.export(d).plane = Some(((w as usize, h as usize), d.props.span("plane")));
+        Ok(Some(node))
+    }
 }

@@ -216,6 +216,8 @@ pub struct Scene {
     pub root: PathBuf,
     pub seed: u64,
     pub size: (u32, u32),
+    /// Where the size was written (absent: the default).
+    pub size_span: Option<Span>,
     pub decls: Vec<Decl>,
     pub sources: SourceMap,
 }

@@ -8,7 +8,7 @@ use super::ast::{self, ValueKind};
 use super::diag::{suggest, Diagnostic, Diagnostics};
 use super::ir::{Call, Decl, Prop, Props, Scene, Val};
 use super::parse::{parse_file, parse_value};
-use super::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit};
+use super::schema::{self, CallSpec, Default, KindSpec, Naming, PropSpec, Range, Setting, Ty, Unit, Value};
 use super::source::{FileId, SourceMap, Span};
 
 /// The largest side of any raster a scene may ask for: 16384² f32 pixels is already 1 GiB
@@ -108,7 +108,14 @@ pub fn compile(root: &Path, loader: &dyn Loader, opts: &Options) -> Result<Scene
     if !errors.is_empty() {
         return Err(Diagnostics::new(errors, checker.sources));
     }
-    Ok(Scene { root, seed: checker.seed, size: checker.size, decls: checker.out, sources: checker.sources })
+    Ok(Scene {
+        root,
+        seed: checker.seed,
+        size: checker.size,
+        size_span: checker.size_span,
+        decls: checker.out,
+        sources: checker.sources,
+    })
 }
 
 /// Lexical normalisation (`a/./b/../c` → `a/c`), so one file reached by two paths is one file.
@@ -232,10 +239,12 @@ struct Checker<'a> {
     errors: Vec<Diagnostic>,
     params: HashMap<String, ParamDef>,
     decls: Vec<DeclAst<'a>>,
-    kinds: HashMap<String, &'static str>,
+    kinds: HashMap<String, &'static KindSpec>,
     out: Vec<Decl>,
     seed: u64,
     size: (u32, u32),
+    /// Where the scene's size was written, if it was.
+    size_span: Option<Span>,
     default_file: Option<FileId>,
     /// References made by the declaration being checked: (name, span).
     deps: Vec<(String, Span)>,
@@ -255,6 +264,7 @@ impl<'a> Checker<'a> {
             out: Vec::new(),
             seed: 0,
             size: (256, 256),
+            size_span: None,
             default_file: None,
             deps: Vec::new(),
             ref_spans: BTreeMap::new(),
@@ -346,7 +356,7 @@ impl<'a> Checker<'a> {
             return;
         }
         seen.insert(name.clone(), name_span);
-        self.kinds.insert(name.clone(), spec.name);
+        self.kinds.insert(name.clone(), spec);
         self.decls.push(DeclAst { spec, name, name_span, decl: d, file });
     }
 
@@ -370,10 +380,10 @@ impl<'a> Checker<'a> {
     }
 
     fn check_all(&mut self) {
-        // The scene block first: other defaults (`SceneSize`) depend on it.
+        // Declarations setting scene settings first: other defaults (`SceneSize`) depend on them.
         let order: Vec<usize> = {
             let mut v: Vec<usize> = (0..self.decls.len()).collect();
-            v.sort_by_key(|&i| self.decls[i].spec.naming != Naming::Anonymous);
+            v.sort_by_key(|&i| self.decls[i].spec.settings.is_empty());
             v
         };
         for i in order {
@@ -381,12 +391,14 @@ impl<'a> Checker<'a> {
             self.deps.clear();
             let dir = self.dir_of(self.decls[i].file);
             let props = self.check_block(&decl.block, spec.props, &dir, self.decls[i].name_span, spec.name);
-            if spec.name == "scene" {
-                if let Some(Val::Int(s)) = props.get("seed") {
-                    self.seed = *s as u64;
-                }
-                if let Some(Val::Size(w, h)) = props.get("size") {
-                    self.size = (*w, *h);
+            for (setting, prop) in spec.settings {
+                match (setting, props.get(prop)) {
+                    (Setting::Seed, Some(Val::Int(s))) => self.seed = *s as u64,
+                    (Setting::Size, Some(Val::Size(w, h))) => {
+                        self.size = (*w, *h);
+                        self.size_span = props.span(prop);
+                    }
+                    _ => {}
                 }
             }
             let d = &self.decls[i];
@@ -794,26 +806,41 @@ impl<'a> Checker<'a> {
         None
     }
 
-    fn reference(&mut self, name: &str, span: Span, kinds: &[&str]) -> Option<String> {
+    /// The kinds whose declarations produce one of `values`, for messages: `sample or layer`.
+    fn producers(&self, values: &[Value]) -> String {
+        let kinds: Vec<&str> =
+            self.registry.iter().filter(|k| k.produces.iter().any(|v| values.contains(v))).map(|k| k.name).collect();
+        kinds.join(" or ")
+    }
+
+    fn reference(&mut self, name: &str, span: Span, values: &[Value]) -> Option<String> {
+        let produces = |k: &KindSpec| k.produces.iter().any(|v| values.contains(v));
         match self.kinds.get(name) {
-            Some(k) if kinds.contains(k) => {
+            Some(k) if produces(k) => {
                 self.deps.push((name.to_string(), span));
                 Some(name.to_string())
             }
             Some(k) => {
-                self.errors.push(
-                    Diagnostic::error(format!("`{name}` is a {k}, but a {} is expected here", kinds.join(" or ")))
-                        .with_code("tessera::wrong_kind")
-                        .with_label(span, format!("this is a {k}")),
-                );
+                let producers = self.producers(values);
+                let mut d = Diagnostic::error(format!(
+                    "`{name}` is a {}, but {} is expected here",
+                    k.name,
+                    schema::values(values)
+                ))
+                .with_code("tessera::wrong_kind")
+                .with_label(span, format!("this is a {}", k.name));
+                if producers.contains(" or ") {
+                    d = d.with_help(format!("{} comes from a {producers}", schema::values(values)));
+                }
+                self.errors.push(d);
                 None
             }
             None => {
                 let mut d = Diagnostic::error(format!("unknown name `{name}`"))
                     .with_code("tessera::unknown_name")
-                    .with_label(span, format!("no {} of this name", kinds.join(" or ")));
+                    .with_label(span, format!("no {} of this name", self.producers(values)));
                 let candidates: Vec<&str> =
-                    self.kinds.iter().filter(|(_, k)| kinds.contains(k)).map(|(n, _)| n.as_str()).collect();
+                    self.kinds.iter().filter(|(_, k)| produces(k)).map(|(n, _)| n.as_str()).collect();
                 if let Some(s) = suggest(name, candidates) {
                     d = d.with_help(format!("did you mean `{s}`?"));
                 }

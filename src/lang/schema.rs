@@ -21,6 +21,88 @@ pub struct KindSpec {
     pub doc: &'static str,
     pub naming: Naming,
     pub props: &'static [PropSpec],
+    /// What a reference to a declaration of this kind can stand for.
+    pub produces: &'static [Value],
+    /// Properties that set scene-wide settings (the scene block's `seed` and `size`).
+    pub settings: &'static [(Setting, &'static str)],
+}
+
+/// What a reference to a declaration yields. Kinds say what they produce and properties
+/// what they accept, so a new kind producing an image is accepted wherever an image is,
+/// with no list of kind names to edit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Value {
+    /// A colour image in a declared colour space (a photo, a synthesised layer).
+    Image,
+    /// A scalar map or a 2-channel vector field.
+    Map,
+    /// A target surface's plane and occupancy.
+    Plane,
+    /// A synthesised planar structure (regions, mesh).
+    Structure,
+    /// A structure to learn from: a structure file or a label image.
+    Example,
+    /// An indexed texture library.
+    Library,
+}
+
+impl Value {
+    pub fn describe(self) -> &'static str {
+        match self {
+            Value::Image => "an image",
+            Value::Map => "a map",
+            Value::Plane => "a surface",
+            Value::Structure => "a structure",
+            Value::Example => "a structure example",
+            Value::Library => "a library",
+        }
+    }
+}
+
+/// A scene-wide setting a kind's property may set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Setting {
+    /// The seed every random stream derives from.
+    Seed,
+    /// The default size of rasters (`Default::SceneSize`).
+    Size,
+}
+
+/// The names of an enum property and the values they stand for, in one table: the schema
+/// lists `names`, the kinds convert with [`Choices::get`], and neither can drift from the
+/// other (there is no fallback for a name the table does not hold).
+pub struct Choices<T: 'static> {
+    pub names: &'static [&'static str],
+    pub values: &'static [T],
+}
+
+impl<T: Copy> Choices<T> {
+    /// The value of `name`, which the schema has already checked is one of `names`.
+    pub fn get(&self, name: &str) -> T {
+        let i = self.names.iter().position(|n| *n == name).unwrap_or_else(|| {
+            panic!("`{name}` is not one of {:?}: the schema admits only this table's names", self.names)
+        });
+        self.values[i]
+    }
+
+    /// The name of `value`.
+    pub fn name(&self, value: T) -> &'static str
+    where
+        T: PartialEq,
+    {
+        let i = self.values.iter().position(|v| *v == value).expect("every value has a name");
+        self.names[i]
+    }
+}
+
+/// Defines a [`Choices`] table: `choices!(pub METRIC: Metric { "ssd" => Metric::Ssd, ... })`.
+#[macro_export]
+macro_rules! choices {
+    ($(#[$m:meta])* $vis:vis $name:ident: $ty:ty { $($text:literal => $value:expr),+ $(,)? }) => {
+        $(#[$m])*
+        $vis const $name: $crate::lang::schema::Choices<$ty> =
+            $crate::lang::schema::Choices { names: &[$($text),+], values: &[$($value),+] };
+    };
 }
 
 #[derive(Debug)]
@@ -107,14 +189,14 @@ pub enum Ty {
     /// A string naming a directory; resolved to its files with these extensions.
     Dir(&'static [&'static str]),
     Enum(&'static [&'static str]),
-    /// A reference to a declaration of one of these kinds.
-    Ref(&'static [&'static str]),
+    /// A reference to a declaration producing one of these values.
+    Ref(&'static [Value]),
     /// A vector of references.
-    Refs(&'static [&'static str]),
-    /// A constructor call from `calls`, or a reference to one of `refs`.
+    Refs(&'static [Value]),
+    /// A constructor call from `calls`, or a reference to a declaration producing one of `refs`.
     Source {
         calls: &'static [CallSpec],
-        refs: &'static [&'static str],
+        refs: &'static [Value],
     },
     /// A nested property block.
     Block(&'static [PropSpec]),
@@ -139,12 +221,12 @@ impl Ty {
                 exts.iter().map(|e| format!("`.{e}`")).collect::<Vec<_>>().join(", ")
             ),
             Ty::Enum(vs) => format!("one of {}", list(vs)),
-            Ty::Ref(ks) => format!("a reference to a {}", ks.join(" or ")),
-            Ty::Refs(ks) => format!("a vector of references to {}", ks.join(" or ")),
+            Ty::Ref(vs) => format!("a reference to {}", values(vs)),
+            Ty::Refs(vs) => format!("a vector of references to {}", values(vs)),
             Ty::Source { calls, refs } => {
                 let mut alts: Vec<String> = calls.iter().map(|c| format!("`{}(...)`", c.name)).collect();
                 if !refs.is_empty() {
-                    alts.push(format!("a {} name", refs.join(" or ")));
+                    alts.push(format!("the name of {}", values(refs)));
                 }
                 format!("one of {}", alts.join(", "))
             }
@@ -155,6 +237,11 @@ impl Ty {
             ),
         }
     }
+}
+
+/// `an image or a map`.
+pub fn values(vs: &[Value]) -> String {
+    vs.iter().map(|v| v.describe()).collect::<Vec<_>>().join(" or ")
 }
 
 fn list(vs: &[&str]) -> String {

@@ -316,16 +316,18 @@ fn typed(rng: &mut Rng, prop: &str, ty: &Ty, names: &Names, depth: usize) -> Str
                 rng.pick(options).to_string()
             }
         }
-        Ty::Ref(kinds) => reference(rng, kinds, names),
-        Ty::Refs(kinds) => {
+        Ty::Ref(values) => reference(rng, &producers(values), names),
+        Ty::Refs(values) => {
             let n = rng.below(4);
-            let v: Vec<String> = (0..n).map(|_| reference(rng, kinds, names)).collect();
+            let kinds = producers(values);
+            let v: Vec<String> = (0..n).map(|_| reference(rng, &kinds, names)).collect();
             format!("[{}]", v.join(", "))
         }
         Ty::Source { calls, refs } => {
-            let usable = names.noise > 0.0 || names.has_earlier(refs);
+            let refs = producers(refs);
+            let usable = names.noise > 0.0 || names.has_earlier(&refs);
             if !refs.is_empty() && usable && rng.chance(0.3) {
-                reference(rng, refs, names)
+                reference(rng, &refs, names)
             } else if calls.is_empty() {
                 any_value(rng, names, depth)
             } else {
@@ -380,6 +382,15 @@ fn call(rng: &mut Rng, c: &CallSpec, names: &Names, depth: usize) -> String {
     }
     let trailing = if rng.chance(0.1) && !args.is_empty() { "," } else { "" };
     format!("{}({}{trailing})", c.name, args.join(", "))
+}
+
+/// The kinds whose declarations produce one of `values`.
+fn producers(values: &[tessera::lang::schema::Value]) -> Vec<&'static str> {
+    tessera::kinds::registry()
+        .into_iter()
+        .filter(|k| k.produces.iter().any(|v| values.contains(v)))
+        .map(|k| k.name)
+        .collect()
 }
 
 fn reference(rng: &mut Rng, kinds: &[&str], names: &Names) -> String {

@@ -14,13 +14,13 @@
 use super::output::encode_image;
 use super::{Encoded, FnStage, OutputFormat, Planner};
 use crate::graph::{NodeId, RunCx, StageError};
+use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::{self, Image};
 use crate::synth::blend::{self, BlendError, BlendParams, Selector};
 use crate::synth::map as m;
 use crate::synth::quilt::{
-    self, Coherence, Equalise, Guide, Metric, Orientation, QuiltError, QuiltOptions, QuiltParams, QuiltResult,
-    SampleChoice, Terms,
+    self, Coherence, Guide, Orientation, QuiltError, QuiltOptions, QuiltParams, QuiltResult, SampleChoice, Terms,
 };
 use crate::synth::surface::Plane;
 
@@ -60,37 +60,56 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
 /// per pixel, sample included).
 const QUILT_BYTES_PER_PIXEL: f64 = 128.0;
 
-/// The size of a quilted layer: its surface's plane, or the scene size.
-fn quilt_size(p: &Planner, d: &Decl) -> (usize, usize) {
-    let (w, h) = match d.props.reference("on") {
-        Some(s) => p.decl(s).props.size("plane"),
-        None => p.scene.size,
-    };
-    (w as usize, h as usize)
+/// The size of a quilted layer and where it was set: its surface's plane, or the scene size.
+fn quilt_size(p: &Planner, d: &Decl) -> ((usize, usize), Option<Span>) {
+    match d.props.reference("on") {
+        Some(s) => p.plane(s),
+        None => ((p.scene.size.0 as usize, p.scene.size.1 as usize), None),
+    }
 }
 
-/// The colour space a layer's values are in: that of the sample it grows from (blends:
-/// their first source's).
-pub(crate) fn color_space<'a>(p: &'a Planner, name: &str) -> &'a str {
-    let d = p.decl(name);
-    match d.kind {
-        "sample" => d.props.enumeration("color"),
-        "layer" => match d.props.reference("quilt") {
-            Some(s) => color_space(p, s),
-            None => color_space(p, &d.props.refs("blend")[0]),
-        },
-        _ => "linear",
+/// The layer kind: quilting and blending.
+pub struct Layer;
+
+impl super::Kind for Layer {
+    fn spec(&self) -> &'static crate::lang::KindSpec {
+        &SPEC
+    }
+
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
+        let node = plan(p, d)?;
+        // A layer's values are in the colour space of the image it grows from (blends:
+        // their first source's).
+        let source = match d.props.reference("quilt") {
+            Some(s) => s.to_string(),
+            None => d.props.refs("blend")[0].clone(),
+        };
+        p.export(d).image = Some(p.color_space(&source));
+        Ok(Some(node))
+    }
+
+    fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
+        let view = out.view;
+        if view == "auto" {
+            return Ok(None);
+        }
+        let d = out.decl;
+        if !matches!(view, "seams" | "index") || out.format.is_text() {
+            return Err(Diagnostic::error(format!("a layer has no `{view}` view as `.{}`", out.ext))
+                .with_code("tessera::output_view")
+                .with_label(d.props.span("view").unwrap_or(d.name_span), "here")
+                .with_help("layers are images; their views are `seams` and `index`"));
+        }
+        let node = plan_output(p, d, out.from, out.format, view)?;
+        // Source positions are identities: a pixel taken from elsewhere is a regression.
+        Ok(Some(super::ViewNode { node, exact: view == "index" }))
     }
 }
 
 fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnostic> {
     let props = &d.props;
-    let (w, h) = quilt_size(p, d);
-    let owner = match props.reference("on") {
-        Some(s) => p.decl(s),
-        None => p.scene.decls.iter().find(|s| s.kind == "scene").unwrap_or(d),
-    };
-    p.check_pixels(d, owner, if owner.kind == "surface" { "plane" } else { "size" }, (w, h), QUILT_BYTES_PER_PIXEL)?;
+    let ((w, h), size_at) = quilt_size(p, d);
+    p.check_pixels(d, size_at, (w, h), QUILT_BYTES_PER_PIXEL)?;
     let block = props.num("block").round() as usize;
     let overlap = props.opt_num("overlap").map(|o| o.round() as usize).unwrap_or((block / 6).max(1));
     if overlap >= block {
@@ -135,12 +154,8 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnos
     let mut params = QuiltParams::new(w, h, block, p.seed(d, "layer.quilt"));
     params.overlap = overlap;
     params.tolerance = props.num("tolerance") as f32;
-    params.metric = if props.enumeration("metric") == "sad" { Metric::Sad } else { Metric::Ssd };
-    params.equalise = match props.enumeration("equalise") {
-        "zscore" => Equalise::ZScore,
-        "none" => Equalise::None,
-        _ => Equalise::MinMax,
-    };
+    params.metric = spec::METRICS.get(props.enumeration("metric"));
+    params.equalise = spec::EQUALISE.get(props.enumeration("equalise"));
     params.channel_weights = props.opt_numbers("weights").map(|w| w.iter().map(|&v| v as f32).collect());
     params.coherence = if props.bool("coherence") {
         Coherence::On { forced_search: props.num("forced_search") as f32 }
@@ -159,7 +174,7 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnos
     let quilt_node = p.add(format!("layer {} (quilt)", d.name), stage, inputs, vec![]);
     p.parts.insert((d.name.clone(), "quilt"), quilt_node);
 
-    if props.enumeration("seams") == "gradient" {
+    if spec::SEAMS.get(props.enumeration("seams")) == spec::SeamRemoval::Gradient {
         let radius = props.num("seam_band").round() as usize;
         let solver = solver_of(d);
         let key = serde_json::json!({ "radius": radius, "solver": solver }).to_string();
@@ -284,11 +299,7 @@ fn exact_size(img: &Image, w: usize, h: usize, prop: &'static str) -> Result<(),
 fn solver_of(d: &Decl) -> blend::Solver {
     let s = d.props.block("solver");
     blend::Solver {
-        kind: if s.enumeration("kind") == "multigrid" {
-            blend::SolverKind::Multigrid
-        } else {
-            blend::SolverKind::Mgpcg
-        },
+        kind: spec::SOLVER_KINDS.get(s.enumeration("kind")),
         tol: s.num("tol"),
         max_iter: s.int("max_iter") as usize,
         ..blend::Solver::default()
@@ -318,7 +329,7 @@ fn plan_blend(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             .with_code("tessera::cycle")
             .with_label(span, "here"));
     }
-    let mode = props.enumeration("mode");
+    let mode = spec::MODES.get(props.enumeration("mode"));
     if sources.len() >= 2 && props.get("mask").is_none() {
         return Err(Diagnostic::error(format!("blending {} layers needs a `mask`", sources.len()))
             .with_code("tessera::missing_property")
@@ -337,26 +348,13 @@ fn plan_blend(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         inputs.push(p.result(mk));
     }
     let params = BlendParams {
-        mode: match mode {
-            "mixed" => blend::Mode::Mixed,
-            "average" => blend::Mode::Average,
-            "cut" => blend::Mode::Cut,
-            _ => blend::Mode::Gradient,
-        },
-        topology: match props.enumeration("topology") {
-            "rim" => blend::Topology::Rim { source: 0 },
-            "open" => blend::Topology::Open,
-            _ => blend::Topology::Torus,
-        },
-        seam: match props.enumeration("seam") {
-            "average" => blend::Seam::Average,
-            "zero" => blend::Seam::Zero,
-            _ => blend::Seam::Insert,
-        },
-        domain: match props.enumeration("domain") {
-            "band" => blend::Domain::Band { radius: props.num("band").round().max(1.0) as usize },
-            "whole" => blend::Domain::Whole,
-            _ => blend::Domain::Mask,
+        mode,
+        topology: spec::TOPOLOGIES.get(props.enumeration("topology")),
+        seam: spec::SEAM_GUIDANCE.get(props.enumeration("seam")),
+        domain: match spec::DOMAINS.get(props.enumeration("domain")) {
+            spec::DomainChoice::Mask => blend::Domain::Mask,
+            spec::DomainChoice::Band => blend::Domain::Band { radius: props.num("band").round().max(1.0) as usize },
+            spec::DomainChoice::Whole => blend::Domain::Whole,
         },
         solver: solver_of(d),
         ..BlendParams::default()

@@ -1,6 +1,39 @@
 //! The schema of `layer` declarations.
 
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, NON_NEG, POSITIVE, UNIT};
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, NON_NEG, POSITIVE, UNIT};
+use crate::synth::{blend, quilt};
+
+/// Whether quilting seams are kept or removed in the gradient domain.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SeamRemoval {
+    Keep,
+    Gradient,
+}
+
+/// Which pixels a blend solves for (`band` takes its radius from `band`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DomainChoice {
+    Mask,
+    Band,
+    Whole,
+}
+
+crate::choices!(pub SOLVER_KINDS: blend::SolverKind { "mgpcg" => blend::SolverKind::Mgpcg, "multigrid" => blend::SolverKind::Multigrid });
+crate::choices!(pub METRICS: quilt::Metric { "ssd" => quilt::Metric::Ssd, "sad" => quilt::Metric::Sad });
+crate::choices!(pub EQUALISE: quilt::Equalise {
+    "minmax" => quilt::Equalise::MinMax, "zscore" => quilt::Equalise::ZScore, "none" => quilt::Equalise::None
+});
+crate::choices!(pub SEAMS: SeamRemoval { "keep" => SeamRemoval::Keep, "gradient" => SeamRemoval::Gradient });
+crate::choices!(pub MODES: blend::Mode {
+    "gradient" => blend::Mode::Gradient, "mixed" => blend::Mode::Mixed, "average" => blend::Mode::Average, "cut" => blend::Mode::Cut
+});
+crate::choices!(pub TOPOLOGIES: blend::Topology {
+    "torus" => blend::Topology::Torus, "rim" => blend::Topology::Rim { source: 0 }, "open" => blend::Topology::Open
+});
+crate::choices!(pub DOMAINS: DomainChoice { "mask" => DomainChoice::Mask, "band" => DomainChoice::Band, "whole" => DomainChoice::Whole });
+crate::choices!(pub SEAM_GUIDANCE: blend::Seam {
+    "insert" => blend::Seam::Insert, "average" => blend::Seam::Average, "zero" => blend::Seam::Zero
+});
 
 const fn prop(name: &'static str, ty: Ty, default: Default, doc: &'static str) -> PropSpec {
     PropSpec { name, ty, default, doc }
@@ -9,7 +42,7 @@ const fn prop(name: &'static str, ty: Ty, default: Default, doc: &'static str) -
 static SOLVER: &[PropSpec] = &[
     prop(
         "kind",
-        Ty::Enum(&["mgpcg", "multigrid"]),
+        Ty::Enum(SOLVER_KINDS.names),
         Default::Text("mgpcg"),
         "Iterative solver for masked domains: multigrid-preconditioned conjugate gradients, or multigrid V-cycles alone. Whole-domain blends are solved exactly by FFT/DCT.",
     ),
@@ -26,12 +59,14 @@ pub static SPEC: KindSpec = KindSpec {
     name: "layer",
     doc: "A synthesised image layer: a sample grown onto a surface by image quilting (`quilt = ...`), or layers blended under a mask in the gradient domain (`blend = [...]`). Give exactly one of `quilt` and `blend`.",
     naming: Naming::Ident,
+    produces: &[Value::Image],
+    settings: &[],
     props: &[
         // Quilting (Efros–Freeman, with Dong's and Frasson's extensions).
-        prop("quilt", Ty::Ref(&["sample"]), Default::Absent, "Grow this sample by image quilting."),
+        prop("quilt", Ty::Ref(&[Value::Image]), Default::Absent, "Grow this image (a sample, or another layer) by image quilting."),
         prop(
             "on",
-            Ty::Ref(&["surface"]),
+            Ty::Ref(&[Value::Plane]),
             Default::Absent,
             "Target surface: its size, and its occupancy (pixels ≤ 0.5 stay empty). Default: the scene size, all occupied.",
         ),
@@ -55,13 +90,13 @@ pub static SPEC: KindSpec = KindSpec {
         ),
         prop(
             "metric",
-            Ty::Enum(&["ssd", "sad"]),
+            Ty::Enum(METRICS.names),
             Default::Text("ssd"),
             "Block error: sum of squared (Efros–Freeman) or absolute (Dong) differences.",
         ),
         prop(
             "equalise",
-            Ty::Enum(&["minmax", "zscore", "none"]),
+            Ty::Enum(EQUALISE.names),
             Default::Text("minmax"),
             "Per-channel scaling before matching (by range or standard deviation), so channels of different units compare.",
         ),
@@ -92,32 +127,32 @@ pub static SPEC: KindSpec = KindSpec {
         prop("tileable", Ty::Bool, Default::Text("false"), "The output wraps around (torus): it tiles seamlessly."),
         prop(
             "orientation",
-            Ty::Ref(&["map"]),
+            Ty::Ref(&[Value::Map]),
             Default::Absent,
             "An orientation field: blocks come from copies of the sample rotated to the field's angle at the block centre.",
         ),
         prop("copies", Ty::Int(1, 64), Default::Text("8"), "Number of pre-rotated sample copies for `orientation`."),
         prop(
             "mix",
-            Ty::Ref(&["sample"]),
+            Ty::Ref(&[Value::Image]),
             Default::Absent,
-            "A second sample, mixed with the first by `density` (a soft choice per block).",
+            "A second image, mixed with the first by `density` (a soft choice per block).",
         ),
         prop(
             "density",
-            Ty::Ref(&["map"]),
+            Ty::Ref(&[Value::Map]),
             Default::Absent,
             "With `mix`: per block, the probability of taking the second sample (0 → only `quilt`, 1 → only `mix`).",
         ),
         prop(
             "guide",
-            Ty::Ref(&["map", "sample", "layer"]),
+            Ty::Ref(&[Value::Map, Value::Image]),
             Default::Absent,
             "A guide image of the output's size; its channel i is compared with sample channel i (Frasson Eq. 5.2).",
         ),
         prop(
             "guide_weight",
-            Ty::Ref(&["map"]),
+            Ty::Ref(&[Value::Map]),
             Default::Absent,
             "Where the guide counts (0 = not at all); default everywhere.",
         ),
@@ -129,7 +164,7 @@ pub static SPEC: KindSpec = KindSpec {
         ),
         prop(
             "seams",
-            Ty::Enum(&["keep", "gradient"]),
+            Ty::Enum(SEAMS.names),
             Default::Text("keep"),
             "After quilting, `gradient` removes the block seams by a Poisson solve in a band around them.",
         ),
@@ -142,13 +177,13 @@ pub static SPEC: KindSpec = KindSpec {
         // Blending (Welsman-Dinelle, after Pérez et al.).
         prop(
             "blend",
-            Ty::Refs(&["layer", "sample"]),
+            Ty::Refs(&[Value::Image]),
             Default::Absent,
             "Blend these (same size): the first is the background, the mask selects the second. With more than two, the mask value v picks source round(v·(n − 1)).",
         ),
         prop(
             "mask",
-            Ty::Ref(&["map"]),
+            Ty::Ref(&[Value::Map]),
             Default::Absent,
             "Which source each pixel takes; must match the sources' size.",
         ),
@@ -160,19 +195,19 @@ pub static SPEC: KindSpec = KindSpec {
         ),
         prop(
             "mode",
-            Ty::Enum(&["gradient", "mixed", "average", "cut"]),
+            Ty::Enum(MODES.names),
             Default::Text("gradient"),
             "`gradient`: Poisson blend of the selected sources' gradients; `mixed`: the stronger gradient per edge; `average`: mean (soft: cross-fade) without a solve; `cut`: the hard composite.",
         ),
         prop(
             "topology",
-            Ty::Enum(&["torus", "rim", "open"]),
+            Ty::Enum(TOPOLOGIES.names),
             Default::Text("torus"),
             "`torus`: opposite edges are neighbours (tileable output); `rim`: the border is fixed to the background averaged over opposite sides; `open`: free border.",
         ),
         prop(
             "domain",
-            Ty::Enum(&["mask", "band", "whole"]),
+            Ty::Enum(DOMAINS.names),
             Default::Text("mask"),
             "Pixels solved for: where the mask selects a non-background source (the thesis), a band around mask edges, or every pixel.",
         ),
@@ -184,7 +219,7 @@ pub static SPEC: KindSpec = KindSpec {
         ),
         prop(
             "seam",
-            Ty::Enum(&["insert", "average", "zero"]),
+            Ty::Enum(SEAM_GUIDANCE.names),
             Default::Text("insert"),
             "Guidance on edges between two sources: the inserted (higher) source's gradient, the mean of both, or zero.",
         ),

@@ -15,10 +15,10 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Bytes, Encoded, FnStage, Planner};
+use super::{Bytes, ColorSpace, Encoded, FnStage, Planner};
 use crate::graph::{NodeId, StageError};
 use crate::lang::ir::Call;
-use crate::lang::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit};
+use crate::lang::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value};
 use crate::lang::{Decl, Diagnostic, Val};
 use crate::raster::{self, Image};
 use crate::synth::blend::mask::Luma;
@@ -33,10 +33,22 @@ const fn prop(name: &'static str, ty: Ty, default: Default, doc: &'static str) -
 /// Image files a library reads.
 pub const EXTENSIONS: &[&str] = &["png", "exr"];
 
+crate::choices!(pub LUMAS: Luma { "mean" => Luma::Mean, "rec601" => Luma::Rec601, "rec709" => Luma::Rec709 });
+crate::choices!(
+    /// `off`: no Fourier axis.
+    pub FOURIER: Option<FourierMode> {
+        "reim" => Some(FourierMode::ReIm), "modulus" => Some(FourierMode::Modulus),
+        "magnitude" => Some(FourierMode::Magnitude), "radial" => Some(FourierMode::Radial), "off" => None
+    }
+);
+crate::choices!(pub NORMALISE: Normalise { "per_query_max" => Normalise::PerQueryMax, "fixed" => Normalise::Fixed });
+
 pub static SPEC: KindSpec = KindSpec {
     name: "library",
     doc: "A texture library: every PNG or EXR image in a directory, with colour-histogram and Fourier features computed once per file. Queried with `similar(...)`.",
     naming: Naming::Ident,
+    produces: &[Value::Library],
+    settings: &[],
     props: &[
         prop("dir", Ty::Dir(EXTENSIONS), Default::Required, "The directory, relative to this scene file (not recursive)."),
         prop(
@@ -53,7 +65,7 @@ pub static SPEC: KindSpec = KindSpec {
         ),
         prop(
             "luma",
-            Ty::Enum(&["mean", "rec601", "rec709"]),
+            Ty::Enum(LUMAS.names),
             Default::Text("mean"),
             "Grey formula for the Fourier features (thesis: the plain mean).",
         ),
@@ -65,8 +77,8 @@ pub static SAMPLE_SOURCES: &[CallSpec] = &[CallSpec {
     name: "similar",
     doc: "The library entry nearest to a sample (Welsman-Dinelle Eq. 4.5): per enabled axis the distance to every entry, scaled to [0, 1], combined as sqrt(Σ d̂²); then `k` candidates drawn with `randomness` (seeded) and the `pick`-th taken.",
     args: &[
-        prop("library", Ty::Ref(&["library"]), Default::Required, "The library to search."),
-        prop("to", Ty::Ref(&["sample"]), Default::Required, "The sample to match."),
+        prop("library", Ty::Ref(&[Value::Library]), Default::Required, "The library to search."),
+        prop("to", Ty::Ref(&[Value::Image]), Default::Required, "The image to match (a sample or a layer)."),
         prop("k", Ty::Int(1, 1000), Default::Text("8"), "Size of the candidate set."),
         prop(
             "randomness",
@@ -78,14 +90,14 @@ pub static SAMPLE_SOURCES: &[CallSpec] = &[CallSpec {
         prop("colour", Ty::Bool, Default::Text("true"), "Compare colour histograms (Eq. 4.2)."),
         prop(
             "fourier",
-            Ty::Enum(&["reim", "modulus", "magnitude", "radial", "off"]),
+            Ty::Enum(FOURIER.names),
             Default::Text("reim"),
             "Compare spectra: real and imaginary parts (the thesis), complex modulus, magnitude only (shift invariant), radial profile (rotation robust), or not at all.",
         ),
         prop("orientation", Ty::Bool, Default::Text("false"), "Also compare the dominant orientations (Chandra)."),
         prop(
             "normalise",
-            Ty::Enum(&["per_query_max", "fixed"]),
+            Ty::Enum(NORMALISE.names),
             Default::Text("per_query_max"),
             "Scale each axis by this query's largest distance (the thesis), or by a bound independent of the library.",
         ),
@@ -141,11 +153,7 @@ fn feature_params(d: &Decl) -> FeatureParams {
         bins: d.props.int("bins") as usize,
         size: d.props.int("size") as usize,
         resample: true,
-        luma: match d.props.enumeration("luma") {
-            "rec601" => Luma::Rec601,
-            "rec709" => Luma::Rec709,
-            _ => Luma::Mean,
-        },
+        luma: LUMAS.get(d.props.enumeration("luma")),
         ..FeatureParams::default()
     }
 }
@@ -205,14 +213,14 @@ pub fn plan_similar(p: &mut Planner, d: &Decl, call: &Call) -> Result<(NodeId, V
     let (_, files) = lib_decl.props.dir("dir").expect("required");
     let files = files.to_vec();
     let params = feature_params(lib_decl);
-    let target_color = p.decl(&to).props.enumeration("color").to_string();
+    let target_color = p.color_space(&to);
     let key = serde_json::json!({ "features": params, "color": target_color }).to_string();
     let stage = FnStage::new("library.target", 1, key, move |cx| {
         let img = cx.input::<Image>(0);
-        let encoded = match target_color.as_str() {
-            "linear" => raster::color::image_linear_to_srgb(&img),
-            "lab" => raster::color::image_linear_to_srgb(&raster::color::image_lab_to_linear(&img)),
-            _ => (*img).clone(),
+        let encoded = match target_color {
+            ColorSpace::Linear => raster::color::image_linear_to_srgb(&img),
+            ColorSpace::Lab => raster::color::image_linear_to_srgb(&raster::color::image_lab_to_linear(&img)),
+            ColorSpace::Srgb => (*img).clone(),
         };
         lib::features(&encoded, &params).map_err(|e| StageError::new(e.to_string()).at_prop("from"))
     });
@@ -227,12 +235,8 @@ pub fn plan_similar(p: &mut Planner, d: &Decl, call: &Call) -> Result<(NodeId, V
     if a.bool("colour") {
         axes.push(Axis::Colour);
     }
-    match a.enumeration("fourier") {
-        "reim" => axes.push(Axis::Fourier(FourierMode::ReIm)),
-        "modulus" => axes.push(Axis::Fourier(FourierMode::Modulus)),
-        "magnitude" => axes.push(Axis::Fourier(FourierMode::Magnitude)),
-        "radial" => axes.push(Axis::Fourier(FourierMode::Radial)),
-        _ => {}
+    if let Some(mode) = FOURIER.get(a.enumeration("fourier")) {
+        axes.push(Axis::Fourier(mode));
     }
     if a.bool("orientation") {
         axes.push(Axis::Orientation);
@@ -257,7 +261,7 @@ pub fn plan_similar(p: &mut Planner, d: &Decl, call: &Call) -> Result<(NodeId, V
     };
     let query = QueryParams {
         axes,
-        normalise: if a.enumeration("normalise") == "fixed" { Normalise::Fixed } else { Normalise::PerQueryMax },
+        normalise: NORMALISE.get(a.enumeration("normalise")),
         // Fractions, not counts: library entries and the target need not have one size.
         histogram: HistogramNorm::Fraction,
         exclude: None,
@@ -321,4 +325,17 @@ pub fn pick_bytes(
     })?;
     debug_assert!(c.index < files.len());
     Ok((cx.file(c.index)?, c.index))
+}
+
+/// The library kind: a directory of textures indexed for search.
+pub struct Library;
+
+impl super::Kind for Library {
+    fn spec(&self) -> &'static crate::lang::KindSpec {
+        &SPEC
+    }
+
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
+        plan(p, d).map(Some)
+    }
 }

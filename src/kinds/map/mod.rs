@@ -10,7 +10,7 @@ use super::{FnStage, Planner};
 use crate::graph::{NodeId, RunCx, StageError};
 use crate::lang::ir::Call;
 use crate::lang::schema::{
-    CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, ANY, NON_NEG, POSITIVE, UNIT,
+    CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, ANY, NON_NEG, POSITIVE, UNIT,
 };
 use crate::lang::{Decl, Diagnostic, Val};
 use crate::raster::{self, Image};
@@ -28,7 +28,7 @@ static SOURCES: &[CallSpec] = &[
             arg("path", Ty::Path, Default::Required, "The image file, relative to this scene file."),
             arg(
                 "channel",
-                Ty::Enum(&["luminance", "r", "g", "b", "a", "vector"]),
+                Ty::Enum(CHANNELS.names),
                 Default::Text("luminance"),
                 "Which channel makes the scalar map; `vector` reads R and G as an orientation field ([0,1] → [-1,1]).",
             ),
@@ -55,7 +55,7 @@ static SOURCES: &[CallSpec] = &[
             arg("radius", Ty::Number(Unit::Length, POSITIVE), Default::Absent, "Radius in pixels; default half the shorter side."),
             arg(
                 "field",
-                Ty::Enum(&["distance", "radial", "tangential"]),
+                Ty::Enum(FIELDS.names),
                 Default::Text("distance"),
                 "`distance`: scalar map; `radial`: unit vectors pointing away from the centre; `tangential`: perpendicular to them (counter-clockwise on screen).",
             ),
@@ -92,7 +92,7 @@ static SOURCES: &[CallSpec] = &[
         name: "noise",
         doc: "Seeded fractal noise in [0, 1]. The seed derives from the scene seed and the map's name unless given.",
         args: &[
-            arg("kind", Ty::Enum(&["value", "gradient"]), Default::Text("gradient"), "Value (lattice) or gradient (Perlin) noise."),
+            arg("kind", Ty::Enum(NOISE_KINDS.names), Default::Text("gradient"), "Value (lattice) or gradient (Perlin) noise."),
             arg("scale", Ty::Number(Unit::Length, POSITIVE), Default::Text("32 px"), "Size of the coarsest octave's cells."),
             arg("octaves", Ty::Int(1, 16), Default::Text("4"), "Number of octaves, each twice as fine."),
             arg("persistence", Ty::Number(Unit::Plain, Range { min: 0.01, max: 16.0 }), Default::Text("0.5"), "Amplitude ratio between octaves."),
@@ -104,11 +104,11 @@ static SOURCES: &[CallSpec] = &[
         name: "combine",
         doc: "Combines two maps pixel by pixel.",
         args: &[
-            arg("a", Ty::Ref(&["map"]), Default::Required, "First map."),
-            arg("b", Ty::Ref(&["map"]), Default::Required, "Second map."),
+            arg("a", Ty::Ref(&[Value::Map]), Default::Required, "First map."),
+            arg("b", Ty::Ref(&[Value::Map]), Default::Required, "Second map."),
             arg(
                 "op",
-                Ty::Enum(&["multiply", "add", "subtract", "min", "max", "mix", "screen"]),
+                Ty::Enum(OPS.names),
                 Default::Text("multiply"),
                 "How to combine; `mix` blends by `t`.",
             ),
@@ -117,14 +117,55 @@ static SOURCES: &[CallSpec] = &[
     },
 ];
 
+/// `channel` of `image(...)`: which channel becomes the map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Channel {
+    Luminance,
+    Index(usize),
+    Vector,
+}
+
+/// `field` of `radial(...)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum RadialField {
+    Distance,
+    Radial,
+    Tangential,
+}
+
+/// `op` of `combine(...)` (`mix` takes its weight from `t`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Op {
+    Multiply,
+    Add,
+    Subtract,
+    Min,
+    Max,
+    Mix,
+    Screen,
+}
+
+crate::choices!(CHANNELS: Channel {
+    "luminance" => Channel::Luminance, "r" => Channel::Index(0), "g" => Channel::Index(1), "b" => Channel::Index(2),
+    "a" => Channel::Index(3), "vector" => Channel::Vector
+});
+crate::choices!(FIELDS: RadialField { "distance" => RadialField::Distance, "radial" => RadialField::Radial, "tangential" => RadialField::Tangential });
+crate::choices!(NOISE_KINDS: m::NoiseKind { "value" => m::NoiseKind::Value, "gradient" => m::NoiseKind::Gradient });
+crate::choices!(OPS: Op {
+    "multiply" => Op::Multiply, "add" => Op::Add, "subtract" => Op::Subtract, "min" => Op::Min, "max" => Op::Max,
+    "mix" => Op::Mix, "screen" => Op::Screen
+});
+
 pub static SPEC: KindSpec = KindSpec {
     name: "map",
     doc: "A scalar map (density, occupancy, size, mask) or a 2-channel orientation field. Operations apply in the order blur, threshold, invert, remap.",
     naming: Naming::Ident,
+    produces: &[Value::Map],
+    settings: &[],
     props: &[
         PropSpec {
             name: "from",
-            ty: Ty::Source { calls: SOURCES, refs: &["map"] },
+            ty: Ty::Source { calls: SOURCES, refs: &[Value::Map] },
             default: Default::Required,
             doc: "Where the values come from: a constructor or another map.",
         },
@@ -159,7 +200,7 @@ const MAP_BYTES_PER_PIXEL: f64 = 24.0;
 pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let (w, h) = d.props.size("size");
     let (w, h) = (w as usize, h as usize);
-    p.check_pixels(d, d, "size", (w, h), MAP_BYTES_PER_PIXEL)?;
+    p.check_pixels(d, d.props.span("size"), (w, h), MAP_BYTES_PER_PIXEL)?;
     let source = match d.props.get("from").expect("required") {
         Val::Ref(other) => {
             // Another map: resampled to this map's size if needed, by the ops stage.
@@ -245,13 +286,10 @@ fn evaluate(
             let bytes = cx.file(0)?;
             let img = super::decode_image(&bytes, budget)
                 .map_err(|e| StageError::new(format!("cannot decode the image: {e}")).in_file(0))?;
-            let field = match a.enumeration("channel") {
-                "vector" => m::from_image_vector(&img),
-                "luminance" => m::from_image_scalar(&img, m::ChannelSel::Luminance),
-                ch => {
-                    let i = ["r", "g", "b", "a"].iter().position(|c| c == &ch).unwrap_or(0);
-                    m::from_image_scalar(&img, m::ChannelSel::Index(i))
-                }
+            let field = match CHANNELS.get(a.enumeration("channel")) {
+                Channel::Vector => m::from_image_vector(&img),
+                Channel::Luminance => m::from_image_scalar(&img, m::ChannelSel::Luminance),
+                Channel::Index(i) => m::from_image_scalar(&img, m::ChannelSel::Index(i)),
             }
             .map_err(|e| StageError::new(e.to_string()).in_file(0))?;
             Ok(fit(&field, w, h))
@@ -260,10 +298,10 @@ fn evaluate(
         "linear" => m::linear(w, h, f32s(a.vec2("from")), f32s(a.vec2("to"))).map_err(map_err),
         "radial" => {
             let radius = a.opt_num("radius").map(|r| r as f32).unwrap_or(w.min(h) as f32 / 2.0);
-            match a.enumeration("field") {
-                "radial" => m::radial_orientation(w, h, center(), m::RadialMode::Radial),
-                "tangential" => m::radial_orientation(w, h, center(), m::RadialMode::Tangential),
-                _ => m::radial(w, h, center(), radius),
+            match FIELDS.get(a.enumeration("field")) {
+                RadialField::Radial => m::radial_orientation(w, h, center(), m::RadialMode::Radial),
+                RadialField::Tangential => m::radial_orientation(w, h, center(), m::RadialMode::Tangential),
+                RadialField::Distance => m::radial(w, h, center(), radius),
             }
             .map_err(map_err)
         }
@@ -277,7 +315,7 @@ fn evaluate(
             m::polygon(w, h, &pts).map_err(map_err)
         }
         "noise" => {
-            let kind = if a.enumeration("kind") == "value" { m::NoiseKind::Value } else { m::NoiseKind::Gradient };
+            let kind = NOISE_KINDS.get(a.enumeration("kind"));
             let mut params =
                 m::NoiseParams::new(kind, a.num("scale") as f32, a.int("octaves") as u32, a.num("persistence") as f32);
             params.tileable = a.bool("tileable");
@@ -285,14 +323,14 @@ fn evaluate(
         }
         "combine" => {
             let (x, y) = (fit(&cx.input::<Image>(0), w, h), fit(&cx.input::<Image>(1), w, h));
-            let op = match a.enumeration("op") {
-                "add" => m::CombineOp::Add,
-                "subtract" => m::CombineOp::Subtract,
-                "min" => m::CombineOp::Min,
-                "max" => m::CombineOp::Max,
-                "mix" => m::CombineOp::Mix(a.num("t") as f32),
-                "screen" => m::CombineOp::Screen,
-                _ => m::CombineOp::Multiply,
+            let op = match OPS.get(a.enumeration("op")) {
+                Op::Multiply => m::CombineOp::Multiply,
+                Op::Add => m::CombineOp::Add,
+                Op::Subtract => m::CombineOp::Subtract,
+                Op::Min => m::CombineOp::Min,
+                Op::Max => m::CombineOp::Max,
+                Op::Mix => m::CombineOp::Mix(a.num("t") as f32),
+                Op::Screen => m::CombineOp::Screen,
             };
             m::combine(&x, &y, op).map_err(map_err)
         }
@@ -306,5 +344,18 @@ pub(crate) fn fit(img: &Image, w: usize, h: usize) -> Image {
         img.clone()
     } else {
         raster::resample::resize(img, w, h, raster::resample::Filter::Bilinear)
+    }
+}
+
+/// The map kind: density, orientation, occupancy and size maps.
+pub struct Map;
+
+impl super::Kind for Map {
+    fn spec(&self) -> &'static crate::lang::KindSpec {
+        &SPEC
+    }
+
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
+        plan(p, d).map(Some)
     }
 }

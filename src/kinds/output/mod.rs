@@ -1,9 +1,9 @@
 //! `output "file" { from = ... }`: encodes a result to a file's bytes. The bytes are a
 //! cached artifact; writing them to disk (atomically, only when changed) is the driver's job.
 
-use super::{Bytes, FnStage, Planner};
+use super::{Bytes, ColorSpace, FnStage, Planner};
 use crate::graph::{NodeId, StageError};
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, POSITIVE, UNIT};
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, Value, POSITIVE, UNIT};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::{self, Image};
@@ -13,10 +13,12 @@ pub static SPEC: KindSpec = KindSpec {
     name: "output",
     doc: "Writes a result to a file under the output directory (`out/<scene>/<name>`), checked against `golden/<scene>/<name>` by `tessera check`. The name is a relative path without `..`; a scene's outputs are written all at once or not at all.",
     naming: Naming::Path,
+    produces: &[],
+    settings: &[],
     props: &[
         PropSpec {
             name: "from",
-            ty: Ty::Ref(&["map", "sample", "surface", "structure", "layer"]),
+            ty: Ty::Ref(&[Value::Map, Value::Image, Value::Plane, Value::Structure]),
             default: Default::Required,
             doc: "What to write. Maps are written as data; 2-channel orientation fields as RGB (x, y → R, G); samples and layers in sRGB (EXR: linear); surfaces as their occupancy; structures as `view` says. A `.json` output of a sample chosen by `similar(...)` writes the ranking.",
         },
@@ -56,7 +58,7 @@ pub static SPEC: KindSpec = KindSpec {
     ],
 };
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum OutputFormat {
     Png8,
     Png16,
@@ -88,18 +90,15 @@ pub struct PlannedOutput {
 }
 
 /// How the source's pixels become file pixels.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 enum View {
+    /// Values written as they are (maps; 2-channel fields as RGB).
     Data,
-    Sample { color: SampleColor },
+    /// An image in a colour space, converted to the file's (PNG: sRGB, EXR: linear).
+    Image { space: ColorSpace },
+    /// A surface's occupancy.
     Plane,
-}
-
-#[derive(Clone, Copy)]
-enum SampleColor {
-    Srgb,
-    Linear,
-    Lab,
 }
 
 pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
@@ -130,41 +129,15 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     })?;
     let name = name.to_string_lossy().into_owned();
     let from = d.props.reference("from").expect("required");
-    let src = p.decl(from);
-    if src.kind == "structure" {
-        let view = d.props.enumeration("view").to_string();
-        // Region ids and their colours are identities: an id off by one is a regression.
-        let exact = matches!(view.as_str(), "labels" | "labels16") || (view == "auto" && !format.is_text());
-        let node = super::structure::plan_output(p, d, from, format, &view, d.props.num("edge_width"))?;
-        p.outputs.push(planned(d, &name, node, format, exact)?);
-        return Ok(node);
-    }
     let view = d.props.enumeration("view");
-    if src.kind == "layer" && view != "auto" {
-        if !matches!(view, "seams" | "index") || format.is_text() {
-            return Err(Diagnostic::error(format!("a layer has no `{view}` view as `.{ext}`"))
-                .with_code("tessera::output_view")
-                .with_label(d.props.span("view").unwrap_or(d.name_span), "here")
-                .with_help("layers are images; their views are `seams` and `index`"));
-        }
-        let node = super::layer::plan_output(p, d, from, format, view)?;
-        let exact = view == "index";
-        p.outputs.push(planned(d, &name, node, format, exact)?);
-        return Ok(node);
+    let request = super::OutputRequest { decl: d, from, format, view, ext: &ext };
+    if let Some(v) = super::kind(p.decl(from).kind).plan_output(p, &request)? {
+        p.outputs.push(planned(d, &name, v.node, format, v.exact)?);
+        return Ok(v.node);
     }
-    let exact = false;
-    if src.kind == "sample" && format == OutputFormat::Json {
-        if let Some(query) = p.part(from, "ranking") {
-            let stage = FnStage::new("output.ranking", 1, String::new(), |cx| {
-                Ok(super::library::ranking_json(&cx.input::<super::library::Ranking>(0)))
-            });
-            let node = p.add(format!("output {}", d.name), stage, vec![query], vec![]);
-            p.outputs.push(planned(d, &name, node, format, exact)?);
-            return Ok(node);
-        }
-    }
+    let src = p.decl(from);
     if view != "auto" {
-        return Err(Diagnostic::error(format!("`view` applies to structures, not to a {}", src.kind))
+        return Err(Diagnostic::error(format!("`view` applies to structures and layers, not to a {}", src.kind))
             .with_code("tessera::output_view")
             .with_label(d.props.span("view").unwrap_or(d.name_span), "remove this"));
     }
@@ -173,29 +146,21 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             .with_code("tessera::output_format")
             .with_label(d.name_span, "use `.png` or `.exr`"));
     }
-    let color = |space: &str| match space {
-        "linear" => SampleColor::Linear,
-        "lab" => SampleColor::Lab,
-        _ => SampleColor::Srgb,
-    };
-    let view = match src.kind {
-        "sample" => View::Sample { color: color(src.props.enumeration("color")) },
-        "layer" => View::Sample { color: color(super::layer::color_space(p, from)) },
-        "surface" => View::Plane,
-        _ => View::Data,
+    // The generic views, by what the source exports.
+    let exports = p.exports(from);
+    let view = match (exports.image, exports.plane) {
+        (Some(space), _) => View::Image { space },
+        (None, Some(_)) => View::Plane,
+        (None, None) => View::Data,
     };
     let input = p.value(from, d.props.span("from").unwrap_or(d.name_span))?;
-    let space = if src.kind == "layer" { super::layer::color_space(p, from) } else { "" };
-    let params = serde_json::json!({
-        "format": format!("{format:?}"), "source": src.kind, "color": src.props.get("color"), "space": space
-    })
-    .to_string();
-    let stage = FnStage::new("output.encode", 1, params, move |cx| {
+    let params = serde_json::json!({ "format": format, "view": view }).to_string();
+    let stage = FnStage::new("output.encode", 2, params, move |cx| {
         let img: Image = match view {
             View::Plane => cx.input::<Plane>(0).occupancy.clone(),
-            View::Sample { color } => {
+            View::Image { space } => {
                 let img = cx.input::<Image>(0);
-                to_file_space(&img, color, format)
+                to_file_space(&img, space, format)
             }
             View::Data => {
                 let img = cx.input::<Image>(0);
@@ -209,7 +174,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         encode_image(&img, format)
     });
     let node = p.add(format!("output {}", d.name), stage, vec![input], vec![]);
-    p.outputs.push(planned(d, &name, node, format, exact)?);
+    p.outputs.push(planned(d, &name, node, format, false)?);
     Ok(node)
 }
 
@@ -247,12 +212,12 @@ pub(crate) fn encode_image(img: &Image, format: OutputFormat) -> Result<Bytes, S
     .map_err(|e| StageError::new(format!("cannot encode the output: {e}")))
 }
 
-/// Samples are stored in their declared colour space; PNGs hold sRGB and EXRs linear.
-fn to_file_space(img: &Image, color: SampleColor, format: OutputFormat) -> Image {
-    let linear = match color {
-        SampleColor::Linear => img.clone(),
-        SampleColor::Srgb => raster::color::image_srgb_to_linear(img),
-        SampleColor::Lab => raster::color::image_lab_to_linear(img),
+/// Images are stored in their declared colour space; PNGs hold sRGB and EXRs linear.
+fn to_file_space(img: &Image, space: ColorSpace, format: OutputFormat) -> Image {
+    let linear = match space {
+        ColorSpace::Linear => img.clone(),
+        ColorSpace::Srgb => raster::color::image_srgb_to_linear(img),
+        ColorSpace::Lab => raster::color::image_lab_to_linear(img),
     };
     match format {
         OutputFormat::Exr => linear,
@@ -266,4 +231,17 @@ fn vector_view(img: &Image) -> Image {
         0 | 1 => 0.5 + 0.5 * img.get(x, y, c),
         _ => 0.5,
     })
+}
+
+/// The output kind: writes a view of another declaration to a file.
+pub struct Output;
+
+impl super::Kind for Output {
+    fn spec(&self) -> &'static KindSpec {
+        &SPEC
+    }
+
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
+        plan(p, d).map(Some)
+    }
 }

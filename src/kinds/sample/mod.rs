@@ -4,14 +4,21 @@
 
 use super::{Bytes, FnStage, Planner};
 use crate::graph::{NodeId, StageError};
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, ANY};
+use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, Value, ANY};
+use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic, Val};
 use crate::raster::{self, Image};
+
+crate::choices!(FILTERS: raster::resample::Filter {
+    "bilinear" => raster::resample::Filter::Bilinear, "bicubic" => raster::resample::Filter::Bicubic
+});
 
 pub static SPEC: KindSpec = KindSpec {
     name: "sample",
     doc: "Example material: a photo or painted image, and files that later stages read (a structure drawing).",
     naming: Naming::Ident,
+    produces: &[Value::Image, Value::Example],
+    settings: &[],
     props: &[
         PropSpec {
             name: "image",
@@ -39,13 +46,13 @@ pub static SPEC: KindSpec = KindSpec {
         },
         PropSpec {
             name: "filter",
-            ty: Ty::Enum(&["bilinear", "bicubic"]),
+            ty: Ty::Enum(FILTERS.names),
             default: Default::Text("bicubic"),
             doc: "Resampling filter for `resize`; resampling happens on linear values.",
         },
         PropSpec {
             name: "color",
-            ty: Ty::Enum(&["srgb", "linear", "lab"]),
+            ty: Ty::Enum(super::COLOR_SPACES.names),
             default: Default::Text("srgb"),
             doc: "Colour space of the sample's pixels as later stages see them (`lab` needs an RGB image).",
         },
@@ -91,7 +98,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     };
     let prep = Prepare::of(d, p.budget)?;
     if let Some((w, h)) = prep.resize {
-        p.check_pixels(d, d, "resize", (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
+        p.check_pixels(d, d.props.span("resize"), (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
     }
     let params = props.canonical();
     let stage = FnStage::new("sample.image", 1, params, move |cx| prep.apply(&cx.file(0)?, 0));
@@ -104,7 +111,7 @@ fn plan_similar(p: &mut Planner, d: &Decl, call: &crate::lang::ir::Call) -> Resu
     p.parts.insert((d.name.clone(), "ranking"), query);
     let prep = Prepare::of(d, p.budget)?;
     if let Some((w, h)) = prep.resize {
-        p.check_pixels(d, d, "resize", (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
+        p.check_pixels(d, d.props.span("resize"), (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
     }
     let pick = call.args.int("pick") as usize;
     let span = d.props.span("from").unwrap_or(d.name_span);
@@ -130,7 +137,7 @@ struct Prepare {
     crop: Option<[usize; 4]>,
     resize: Option<(u32, u32)>,
     filter: raster::resample::Filter,
-    color: String,
+    color: super::ColorSpace,
 }
 
 impl Prepare {
@@ -151,11 +158,8 @@ impl Prepare {
             }
         };
         let resize = props.opt_size("resize");
-        let filter = match props.enumeration("filter") {
-            "bilinear" => raster::resample::Filter::Bilinear,
-            _ => raster::resample::Filter::Bicubic,
-        };
-        let color = props.enumeration("color").to_string();
+        let filter = FILTERS.get(props.enumeration("filter"));
+        let color = super::COLOR_SPACES.get(props.enumeration("color"));
         Ok(Prepare { budget, crop, resize, filter, color })
     }
 
@@ -195,21 +199,67 @@ impl Prepare {
                 return Err(overflow("resized"));
             }
         }
-        let img = match self.color.as_str() {
-            "srgb" => raster::color::image_linear_to_srgb(&img),
-            "lab" if img.channels >= 3 => raster::color::image_linear_to_lab(&img),
-            "lab" => {
+        use super::ColorSpace;
+        let img = match self.color {
+            ColorSpace::Srgb => raster::color::image_linear_to_srgb(&img),
+            ColorSpace::Lab if img.channels >= 3 => raster::color::image_linear_to_lab(&img),
+            ColorSpace::Lab => {
                 return Err(StageError::new(format!(
                     "`color = lab` needs an RGB image; this one has {} channel(s)",
                     img.channels
                 ))
                 .at_prop("color"))
             }
-            _ => img,
+            ColorSpace::Linear => img,
         };
         if img.data.iter().any(|v| !v.is_finite()) {
-            return Err(overflow(&format!("converted to `color = {}`", self.color)));
+            return Err(overflow(&format!("converted to `color = {}`", super::COLOR_SPACES.name(self.color))));
         }
         Ok(img)
     }
+}
+
+/// The sample kind: an image file, a structure file, or an entry chosen from a library.
+pub struct Sample;
+
+impl super::Kind for Sample {
+    fn spec(&self) -> &'static crate::lang::KindSpec {
+        &SPEC
+    }
+
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
+        let node = plan(p, d)?;
+        if let Some(path) = d.props.path("structure") {
+            p.export(d).example = Some((path.clone(), d.props.span("structure").unwrap_or(d.name_span)));
+        }
+        if has_image(d) {
+            p.export(d).image = Some(super::COLOR_SPACES.get(d.props.enumeration("color")));
+        }
+        Ok(Some(node))
+    }
+
+    fn refuse_value(&self, d: &Decl, at: Span) -> Option<Diagnostic> {
+        (!has_image(d)).then(|| {
+            Diagnostic::error(format!("sample `{}` holds only a structure file, not an image", d.name))
+                .with_code("tessera::sample_image")
+                .with_label(at, "an image is needed here")
+                .with_help("give the sample an `image`, or use it as a structure's `from`")
+        })
+    }
+
+    fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
+        // A sample chosen by `similar(...)` written as JSON: its ranking.
+        let Some(query) = p.part(out.from, "ranking").filter(|_| out.format == super::OutputFormat::Json) else {
+            return Ok(None);
+        };
+        let stage = FnStage::new("output.ranking", 1, String::new(), |cx| {
+            Ok(super::library::ranking_json(&cx.input::<super::library::Ranking>(0)))
+        });
+        let node = p.add(format!("output {}", out.decl.name), stage, vec![query], vec![]);
+        Ok(Some(super::ViewNode { node, exact: false }))
+    }
+}
+
+fn has_image(d: &Decl) -> bool {
+    d.props.get("image").is_some() || d.props.get("from").is_some()
 }

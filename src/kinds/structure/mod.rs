@@ -240,10 +240,10 @@ fn colour_ids(img: &Image) -> Vec<u32> {
 }
 
 fn metric_kind(name: &str) -> MetricKind {
-    match name {
-        "manhattan" => MetricKind::Manhattan,
-        "chebyshev" => MetricKind::Chebyshev,
-        _ => MetricKind::Elliptic,
+    match spec::METRICS.get(name) {
+        spec::MetricChoice::Elliptic => MetricKind::Elliptic,
+        spec::MetricChoice::Manhattan => MetricKind::Manhattan,
+        spec::MetricChoice::Chebyshev => MetricKind::Chebyshev,
     }
 }
 
@@ -255,28 +255,25 @@ const STRUCTURE_BYTES_PER_PIXEL: f64 = 48.0;
 pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let props = &d.props;
     let from = props.reference("from").expect("required");
-    let sample = p.decl(from);
-    let Some(path) = sample.props.path("structure").cloned() else {
-        return Err(Diagnostic::error(format!("sample `{from}` has no `structure` file to learn from"))
+    let Some((path, path_span)) = p.exports(from).example else {
+        let sample = p.decl(from);
+        return Err(Diagnostic::error(format!("{} `{from}` has no `structure` file to learn from", sample.kind))
             .with_code("tessera::structure")
-            .with_label(props.span("from").unwrap_or(d.name_span), "this sample")
+            .with_label(props.span("from").unwrap_or(d.name_span), format!("this {}", sample.kind))
             .with_label(sample.name_span, "declared here")
-            .with_help("give the sample `structure = \"file.json\"`"));
+            .with_help(format!("give the {} `structure = \"file.json\"`", sample.kind)));
     };
-    let path_span = sample.props.span("structure").unwrap_or(sample.name_span);
     let on = props.reference("on").expect("required");
-    let (w, h) = p.decl(on).props.size("plane");
-    let (w, h) = (w as usize, h as usize);
-    p.check_pixels(d, p.decl(on), "plane", (w, h), STRUCTURE_BYTES_PER_PIXEL)?;
+    let ((w, h), size_at) = p.plane(on);
+    p.check_pixels(d, size_at, (w, h), STRUCTURE_BYTES_PER_PIXEL)?;
     let seed = props.get("seed").map(|_| props.int("seed") as u64).unwrap_or_else(|| p.seed(d, "structure"));
 
     // A1: analysis of the sample's structure.
     let config = StatsConfig {
         exclude_border_regions: props.bool("exclude_border_regions"),
-        ellipse_fit: if props.enumeration("ellipse_fit") == "pixels" {
-            EllipseFit::Pixels
-        } else {
-            EllipseFit::Polygon
+        ellipse_fit: match spec::ELLIPSE_FITS.get(props.enumeration("ellipse_fit")) {
+            spec::Either::First => EllipseFit::Polygon,
+            spec::Either::Second => EllipseFit::Pixels,
         },
     };
     let budget = p.budget;
@@ -313,14 +310,14 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     // The density map steers sampling only when centres follow it (§10.2: S1 reads the
     // occupancy, size and, for `centers = density`, density maps).
     let s1_maps: &[&'static str] =
-        if props.enumeration("centers") == "density" { &["size", "density"] } else { &["size"] };
+        if centers(props) == spec::Centers::Density { &["size", "density"] } else { &["size"] };
     let maps = MapInputs::add(p, props, &mut inputs, s1_maps);
     let s1_params = serde_json::json!({
         "w": w, "h": h, "seed": seed,
         "mode": props.get("mode"), "scale": props.get("scale"), "centers": props.get("centers"),
         "shape_sampling": props.get("shape_sampling"), "perturb": props.get("perturb"), "swaps": props.get("swaps"),
         "size_mode": size_mode(props), "occupancy_remove": props.get("occupancy_remove"),
-        "density": if props.enumeration("centers") == "density" {
+        "density": if centers(props) == spec::Centers::Density {
             serde_json::json!([props.get("density_eps"), props.get("density_gamma")])
         } else {
             serde_json::Value::Null
@@ -501,11 +498,14 @@ fn convert_edits(props: &Props) -> Result<Vec<Edit>, Diagnostic> {
 
 /// How the size map sizes the ellipses (S1 and Lloyd).
 fn size_mode(props: &Props) -> SizeMode {
-    if props.enumeration("size_mode") == "fixed" {
-        SizeMode::Fixed { radius: props.num("size_fixed") }
-    } else {
-        SizeMode::Scale { k_min: props.num("size_min") }
+    match spec::SIZE_MODES.get(props.enumeration("size_mode")) {
+        spec::SizeModeChoice::Fixed => SizeMode::Fixed { radius: props.num("size_fixed") },
+        spec::SizeModeChoice::Scale => SizeMode::Scale { k_min: props.num("size_min") },
     }
+}
+
+fn centers(props: &Props) -> spec::Centers {
+    spec::CENTERS.get(props.enumeration("centers"))
 }
 
 /// What S1 needs from the declaration.
@@ -513,7 +513,7 @@ fn size_mode(props: &Props) -> SizeMode {
 struct SampleOptions {
     statistical: bool,
     scale: f64,
-    centers: String,
+    centers: spec::Centers,
     joint: bool,
     perturb: f64,
     swaps: f64,
@@ -533,17 +533,16 @@ impl SampleOptions {
     fn from(props: &Props, budget: crate::graph::Budget) -> Self {
         SampleOptions {
             max_regions: (budget.bytes as f64 / REGION_BYTES) as usize,
-            statistical: props.enumeration("mode") == "statistical",
+            statistical: spec::MODES.get(props.enumeration("mode")) == spec::Mode::Statistical,
             scale: props.num("scale"),
-            centers: props.enumeration("centers").to_string(),
-            joint: props.enumeration("shape_sampling") == "joint",
+            centers: centers(props),
+            joint: spec::SHAPE_SAMPLING.get(props.enumeration("shape_sampling")) == spec::Either::Second,
             perturb: props.num("perturb"),
             swaps: props.num("swaps"),
             size_mode: size_mode(props),
-            remove: if props.enumeration("occupancy_remove") == "any_overlap" {
-                RemoveMode::AnyOverlap
-            } else {
-                RemoveMode::Center
+            remove: match spec::OCCUPANCY_REMOVE.get(props.enumeration("occupancy_remove")) {
+                spec::Either::First => RemoveMode::Center,
+                spec::Either::Second => RemoveMode::AnyOverlap,
             },
             density: DensityParams {
                 eps: props.num("density_eps") as f32,
@@ -602,12 +601,13 @@ fn sample_generators(
     let angle_hist = model.ellipse_angle.histogram.clone();
     let mut centre_hist = model.ellipse_center.histogram.clone();
     let mut centre_fn = move |r: &mut Rng| centre_hist.as_mut().map(|hh| hh.sample(r)).unwrap_or([0.0, 0.0]);
-    let centers = match o.centers.as_str() {
-        "density" => CenterSource::Density,
-        "histogram" if model.ellipse_center.histogram.is_some() => {
+    let centers = match o.centers {
+        spec::Centers::Density => CenterSource::Density,
+        // Too few regions for a centre histogram: uniform placement.
+        spec::Centers::Histogram if model.ellipse_center.histogram.is_some() => {
             CenterSource::Histogram { sampler: &mut centre_fn, bbox: [[0.0, 0.0], sample.size] }
         }
-        _ => CenterSource::Uniform,
+        spec::Centers::Histogram | spec::Centers::Uniform => CenterSource::Uniform,
     };
     let synthesized = match (o.joint, axes_hist, angle_hist) {
         (false, Some(axes), Some(angle)) => {
@@ -705,10 +705,9 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
     };
     let density =
         DensityParams { eps: props.num("density_eps") as f32, gamma: props.num("density_gamma") as f32, invert: false };
-    let orientation_mode = if props.enumeration("orientation_mode") == "center" {
-        OrientationMode::Center
-    } else {
-        OrientationMode::Region
+    let orientation_mode = match spec::ORIENTATION_MODES.get(props.enumeration("orientation_mode")) {
+        spec::Either::First => OrientationMode::Region,
+        spec::Either::Second => OrientationMode::Center,
     };
     let mut inputs = vec![gens, surface];
     let maps = MapInputs::add(p, props, &mut inputs, &["density", "orientation", "metric_map", "size"]);
@@ -744,6 +743,27 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
         })
     });
     p.add(format!("structure {} ({tag})", d.name), stage, inputs, vec![])
+}
+
+/// The structure kind: structure synthesis from an example.
+pub struct Structure;
+
+impl super::Kind for Structure {
+    fn spec(&self) -> &'static crate::lang::KindSpec {
+        &SPEC
+    }
+
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
+        plan(p, d).map(Some)
+    }
+
+    fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
+        let d = out.decl;
+        // Region ids and their colours are identities: an id off by one is a regression.
+        let exact = matches!(out.view, "labels" | "labels16") || (out.view == "auto" && !out.format.is_text());
+        let node = plan_output(p, d, out.from, out.format, out.view, d.props.num("edge_width"))?;
+        Ok(Some(super::ViewNode { node, exact }))
+    }
 }
 
 /// The stage writing one view of a structure to an output file.
@@ -792,8 +812,7 @@ pub fn plan_output(
     let metric = metric_kind(decl.props.enumeration("metric"));
     // The structure's size is its surface's, fixed when planned: mesh views need not load
     // the label raster to learn it.
-    let (w, h) = p.decl(decl.props.reference("on").expect("required")).props.size("plane");
-    let (w, h) = (w as usize, h as usize);
+    let ((w, h), _) = p.plane(decl.props.reference("on").expect("required"));
     let params =
         serde_json::json!({ "view": view, "format": format!("{format:?}"), "edge_width": edge_width, "w": w, "h": h })
             .to_string();

@@ -1,6 +1,57 @@
 //! The schema of `structure` declarations (digest 004 §10.1).
 
-use crate::lang::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, ANY, POSITIVE, UNIT};
+use crate::lang::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, ANY, POSITIVE, UNIT};
+
+/// `mode`: how region shapes are drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    Statistical,
+    Trivial,
+}
+
+/// `centers`: where generators are placed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Centers {
+    Uniform,
+    Density,
+    Histogram,
+}
+
+/// `size_mode`: how the size map sets region sizes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SizeModeChoice {
+    Scale,
+    Fixed,
+}
+
+/// A two-way choice named by the property it belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Either {
+    First,
+    Second,
+}
+
+/// `metric`: the distance Lloyd's regions are grown with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MetricChoice {
+    Elliptic,
+    Manhattan,
+    Chebyshev,
+}
+
+crate::choices!(pub MODES: Mode { "statistical" => Mode::Statistical, "trivial" => Mode::Trivial });
+crate::choices!(pub CENTERS: Centers { "uniform" => Centers::Uniform, "density" => Centers::Density, "histogram" => Centers::Histogram });
+crate::choices!(
+    /// `independent`: axes and angle drawn apart; `joint`: (axes, angle) triples together.
+    pub SHAPE_SAMPLING: Either { "independent" => Either::First, "joint" => Either::Second }
+);
+crate::choices!(pub SIZE_MODES: SizeModeChoice { "scale" => SizeModeChoice::Scale, "fixed" => SizeModeChoice::Fixed });
+crate::choices!(pub ORIENTATION_MODES: Either { "region" => Either::First, "center" => Either::Second });
+crate::choices!(pub METRICS: MetricChoice {
+    "elliptic" => MetricChoice::Elliptic, "manhattan" => MetricChoice::Manhattan, "chebyshev" => MetricChoice::Chebyshev
+});
+crate::choices!(pub OCCUPANCY_REMOVE: Either { "center" => Either::First, "any_overlap" => Either::Second });
+crate::choices!(pub ELLIPSE_FITS: Either { "polygon" => Either::First, "pixels" => Either::Second });
 
 const fn p(name: &'static str, ty: Ty, default: Default, doc: &'static str) -> PropSpec {
     PropSpec { name, ty, default, doc }
@@ -117,37 +168,39 @@ pub static SPEC: KindSpec = KindSpec {
     name: "structure",
     doc: "A synthesised planar subdivision (stones, cells, scales) grown from a sample's drawn structure onto a surface, steered by control maps.",
     naming: Naming::Ident,
+    produces: &[Value::Structure],
+    settings: &[],
     props: &[
-        p("from", Ty::Ref(&["sample"]), Default::Required, "The sample whose `structure` file is analysed."),
-        p("on", Ty::Ref(&["surface"]), Default::Required, "The target surface; its occupancy map forbids regions."),
+        p("from", Ty::Ref(&[Value::Example]), Default::Required, "The sample whose `structure` file is analysed."),
+        p("on", Ty::Ref(&[Value::Plane]), Default::Required, "The target surface; its occupancy map forbids regions."),
         p(
             "mode",
-            Ty::Enum(&["statistical", "trivial"]),
+            Ty::Enum(MODES.names),
             Default::Text("statistical"),
             "`statistical`: sample new ellipses from the statistics; `trivial`: perturb and swap the sample's own regions.",
         ),
         p("scale", Ty::Number(Unit::Plain, POSITIVE), Default::Text("1"), "Linear size of regions relative to the sample."),
         p(
             "centers",
-            Ty::Enum(&["uniform", "density", "histogram"]),
+            Ty::Enum(CENTERS.names),
             Default::Text("uniform"),
             "Where initial generators go: uniform over allowed pixels, weighted by the density map, or from the sample's centre histogram.",
         ),
         p(
             "shape_sampling",
-            Ty::Enum(&["independent", "joint"]),
+            Ty::Enum(SHAPE_SAMPLING.names),
             Default::Text("independent"),
             "`independent`: axes and angle from separate histograms (the thesis); `joint`: whole (a, b, θ) triples with jitter.",
         ),
         p("perturb", Ty::Number(Unit::Length, ANY), Default::Text("0 px"), "Trivial mode: noise on generator centres (std. dev.)."),
         p("swaps", Ty::Number(Unit::Fraction, UNIT), Default::Text("0%"), "Trivial mode: fraction of regions swapped at random."),
-        p("density", Ty::Ref(&["map"]), Default::Absent, "Density map: dark pixels weigh more in centroids."),
+        p("density", Ty::Ref(&[Value::Map]), Default::Absent, "Density map: dark pixels weigh more in centroids."),
         p("density_eps", Ty::Number(Unit::Plain, UNIT), Default::Text("0.01"), "Smallest density weight."),
         p("density_gamma", Ty::Number(Unit::Plain, POSITIVE), Default::Text("1"), "Exponent of the density weight."),
-        p("size", Ty::Ref(&["map"]), Default::Absent, "Size map: darker means smaller regions."),
+        p("size", Ty::Ref(&[Value::Map]), Default::Absent, "Size map: darker means smaller regions."),
         p(
             "size_mode",
-            Ty::Enum(&["scale", "fixed"]),
+            Ty::Enum(SIZE_MODES.names),
             Default::Text("scale"),
             "`scale`: ellipses shrink with the size map down to `size_min` at black; `fixed`: inside its dark half (< 0.5) every ellipse gets the mean radius `size_fixed`, keeping its aspect ratio.",
         ),
@@ -158,34 +211,34 @@ pub static SPEC: KindSpec = KindSpec {
             Default::Text("6 px"),
             "`fixed` mode: mean radius `√(ab)` of the ellipses in the marked area.",
         ),
-        p("orientation", Ty::Ref(&["map"]), Default::Absent, "Orientation field (2-channel map) turning the ellipses."),
+        p("orientation", Ty::Ref(&[Value::Map]), Default::Absent, "Orientation field (2-channel map) turning the ellipses."),
         p(
             "orientation_mode",
-            Ty::Enum(&["region", "center"]),
+            Ty::Enum(ORIENTATION_MODES.names),
             Default::Text("region"),
             "Angle from the axial mean over the region, or sampled at its centre.",
         ),
         p(
             "metric",
-            Ty::Enum(&["elliptic", "manhattan", "chebyshev"]),
+            Ty::Enum(METRICS.names),
             Default::Text("elliptic"),
             "Distance used by the Voronoi step, on `(u/a, v/b)` in each ellipse's frame: `elliptic` (the thesis's, rounded cells), `manhattan` (L1: Lloyd makes square tiles turned 45° from the ellipse axes), `chebyshev` (L∞).",
         ),
         p(
             "metric_map",
-            Ty::Ref(&["map"]),
+            Ty::Ref(&[Value::Map]),
             Default::Absent,
             "Per-pixel metric: values below 1/3 elliptic, below 2/3 Manhattan, else Chebyshev.",
         ),
         p(
             "occupancy_remove",
-            Ty::Enum(&["center", "any_overlap"]),
+            Ty::Enum(OCCUPANCY_REMOVE.names),
             Default::Text("center"),
             "Which sampled ellipses the occupancy map removes.",
         ),
         p(
             "ellipse_fit",
-            Ty::Enum(&["polygon", "pixels"]),
+            Ty::Enum(ELLIPSE_FITS.names),
             Default::Text("polygon"),
             "Fit ellipses to the sample's regions by polygon moments or by their pixels.",
         ),
