@@ -67,7 +67,7 @@ fn a_second_similar_loads_what_the_first_computed() {
     let p = library();
     let args = ["tex", "q.png", "-k", "3", "--size", "32"];
     let (first, stages) = similar(&p, &args);
-    let features = vec!["library.features"; 5];
+    let features = ["library.features"; 5];
     assert_eq!(with_status(&stages, "ran"), [&features[..], &["library.index", "library.query"]].concat());
     let entries = cache_entries(&p.path(".tessera/cache"));
     assert_eq!(entries, 7, "four entries, the target, the index and the query");
