@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 pub use artifact::{Bytes, Encoded, FnStage};
-pub use library::axis_name;
+pub use library::{axis_name, entries as library_entries, plan_standalone, Ranking, Standalone};
 pub use output::{OutputFormat, PlannedOutput};
 
 use crate::graph::{Budget, Graph, Node, NodeId, Stage};

@@ -1,7 +1,9 @@
-//! The commands, as library calls: build, check, bless, graph, gc, watch. The CLI in
-//! `main.rs` only parses arguments and prints what these return.
+//! The commands, as library calls: build, check, bless, graph, gc, watch. `commands` runs
+//! them as the CLI does (what is printed, when a command fails); `main.rs` only parses
+//! arguments and calls it.
 
 mod check;
+pub mod commands;
 pub mod format;
 pub mod manifest;
 mod show;

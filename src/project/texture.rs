@@ -1,13 +1,17 @@
-//! `tessera similar` and `tessera compare`: texture tools that read image files directly,
-//! outside any scene.
+//! `tessera similar` and `tessera compare`: texture tools run on image files outside any
+//! scene. `similar` is a library query planned from the `library` kind's own stages and
+//! run through the project's executor and cache, so a second run on one directory loads
+//! the features instead of computing them, and scenes share them; `compare` reads its two
+//! files directly.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
+use std::time::Instant;
 
-use rayon::prelude::*;
-
+use super::Project;
+use crate::graph::{Graph, Report};
+use crate::kinds::{self, Ranking, Standalone};
 use crate::raster::{self, Image};
-use crate::synth::blend::mask::Luma;
-use crate::synth::library::{self, Axis, FeatureParams, FourierMode, HistogramNorm, Normalise, QueryParams};
+use crate::synth::library::{Axis, FourierMode, Normalise};
 use crate::synth::metrics;
 
 /// Options of `tessera similar`.
@@ -18,11 +22,31 @@ pub struct SimilarOptions {
     pub seed: u64,
     pub colour: bool,
     /// `None`: no Fourier axis.
-    pub fourier: Option<FourierMode>,
+    pub fourier: Option<Fourier>,
     pub orientation: bool,
-    pub normalise: Normalise,
+    /// Scale axes by fixed bounds instead of this query's largest distance.
+    pub fixed: bool,
     pub bins: usize,
     pub size: usize,
+}
+
+/// How `similar` compares spectra.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fourier {
+    /// Real and imaginary parts (the thesis).
+    ReIm,
+    Modulus,
+    /// Magnitude only: shift invariant.
+    Magnitude,
+    /// Radial profile: rotation robust.
+    Radial,
+}
+
+/// A ranking as `tessera similar` prints it, and how its stages ran.
+pub struct Similar {
+    pub table: String,
+    pub report: Report,
+    pub millis: f64,
 }
 
 /// Reads an image as texture tools compare it: encoded (sRGB-like) values, all finite.
@@ -36,71 +60,71 @@ pub fn read_texture(path: &Path) -> Result<Image, String> {
     Ok(if raster::io::is_exr(&bytes) { raster::color::image_linear_to_srgb(&img) } else { img })
 }
 
-/// The image files of a library directory, sorted by name.
-pub fn library_files(dir: &Path) -> Result<Vec<PathBuf>, String> {
-    let entries = std::fs::read_dir(dir).map_err(|e| format!("cannot read the directory `{}`: {e}", dir.display()))?;
-    let mut files: Vec<PathBuf> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.is_file()
-                && p.extension()
-                    .and_then(|e| e.to_str())
-                    .is_some_and(|e| e.eq_ignore_ascii_case("png") || e.eq_ignore_ascii_case("exr"))
-        })
-        .collect();
-    files.sort();
+/// Ranks the library in `dir` against `target` and renders the table `tessera similar` prints.
+pub fn similar(p: &Project, dir: &Path, target: &Path, o: &SimilarOptions) -> Result<Similar, String> {
+    let files = kinds::library_entries(&p.world, dir)
+        .map_err(|e| format!("cannot read the directory `{}`: {e}", dir.display()))?;
     if files.is_empty() {
         return Err(format!("the directory `{}` holds no `.png` or `.exr` files", dir.display()));
     }
-    Ok(files)
-}
-
-/// Ranks the library in `dir` against `target` and renders the table `tessera similar` prints.
-pub fn similar(dir: &Path, target: &Path, o: &SimilarOptions) -> Result<String, String> {
-    let files = library_files(dir)?;
-    let params =
-        FeatureParams { bins: o.bins, size: o.size, resample: true, luma: Luma::Mean, ..FeatureParams::default() };
-    let features = files
-        .par_iter()
-        .map(|f| {
-            let img = read_texture(f)?;
-            library::features(&img, &params).map_err(|e| format!("`{}`: {e}", f.display()))
-        })
-        .collect::<Result<Vec<_>, String>>()?;
-    let query_img = read_texture(target)?;
-    let query = library::features(&query_img, &params).map_err(|e| format!("`{}`: {e}", target.display()))?;
     let mut axes = Vec::new();
     if o.colour {
         axes.push(Axis::Colour);
     }
     if let Some(m) = o.fourier {
-        axes.push(Axis::Fourier(m));
+        axes.push(Axis::Fourier(match m {
+            Fourier::ReIm => FourierMode::ReIm,
+            Fourier::Modulus => FourierMode::Modulus,
+            Fourier::Magnitude => FourierMode::Magnitude,
+            Fourier::Radial => FourierMode::Radial,
+        }));
     }
     if o.orientation {
         axes.push(Axis::Orientation);
     }
-    if axes.is_empty() {
-        return Err("every axis is off: enable colour, fourier or orientation".into());
-    }
-    let qp =
-        QueryParams { axes: axes.clone(), normalise: o.normalise, histogram: HistogramNorm::Fraction, exclude: None };
-    let chosen = library::query(&features, &query, &qp, o.k, o.randomness, o.seed).map_err(|e| e.to_string())?;
+    let compares_nothing = axes.is_empty();
     let names: Vec<String> =
         files.iter().map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()).collect();
+    let mut graph = Graph::default();
+    let query = kinds::plan_standalone(
+        &mut graph,
+        Standalone {
+            files,
+            target: target.to_path_buf(),
+            bins: o.bins,
+            size: o.size,
+            axes,
+            normalise: if o.fixed { Normalise::Fixed } else { Normalise::PerQueryMax },
+            k: o.k,
+            randomness: o.randomness,
+            seed: o.seed,
+        },
+        p.budget,
+    );
+    // With every axis off the command has always read every file first, so an unreadable
+    // one is still the error it reports.
+    let targets = if compares_nothing { graph.nodes[query].inputs.clone() } else { vec![query] };
+    let start = Instant::now();
+    let outcome = p.executor().run(&graph, &targets).map_err(|(f, _)| f.error.message)?;
+    let millis = start.elapsed().as_secs_f64() * 1000.0;
+    if compares_nothing {
+        return Err("every axis is off: enable colour, fourier or orientation".into());
+    }
+    let ranking = outcome.values[&query].clone().downcast::<Ranking>().expect("a query yields a ranking");
     let width = names.iter().map(|n| n.len()).max().unwrap_or(5).max(5);
     let mut out = format!("{:<4}  {:<width$}  {:>8}", "rank", "entry", "distance");
-    for a in &axes {
-        out.push_str(&format!("  {:>12}", crate::kinds::axis_name(a)));
+    for a in &ranking.axes {
+        out.push_str(&format!("  {a:>12}"));
     }
     out.push('\n');
-    for (i, c) in chosen.iter().enumerate() {
-        out.push_str(&format!("{:<4}  {:<width$}  {:>8.4}", i + 1, names[c.index], c.distance));
+    for (i, c) in ranking.candidates.iter().enumerate() {
+        out.push_str(&format!("{:<4}  {:<width$}  {:>8.4}", i + 1, c.name, c.distance));
         for v in &c.axes {
             out.push_str(&format!("  {v:>12.4}"));
         }
         out.push('\n');
     }
-    Ok(out)
+    Ok(Similar { table: out, report: outcome.report, millis })
 }
 
 /// Every texture measure of `a` against `b`, as the table `tessera compare` prints.

@@ -339,3 +339,108 @@ impl super::Kind for Library {
         plan(p, d).map(Some)
     }
 }
+
+/// `tessera similar DIR TARGET`: a library query outside any scene.
+pub struct Standalone {
+    /// The directory's entries, as [`entries`] lists them.
+    pub files: Vec<PathBuf>,
+    pub target: PathBuf,
+    pub bins: usize,
+    pub size: usize,
+    pub axes: Vec<Axis>,
+    pub normalise: Normalise,
+    pub k: usize,
+    pub randomness: f64,
+    pub seed: u64,
+}
+
+/// The image files of a library directory as a scene's `dir` lists them: regular files
+/// with one of [`EXTENSIONS`] (any case), sorted by name.
+pub fn entries(world: &crate::graph::World, dir: &std::path::Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut files: Vec<PathBuf> = world
+        .list(dir)?
+        .into_iter()
+        .filter(|f| {
+            f.extension().and_then(|e| e.to_str()).is_some_and(|e| EXTENSIONS.iter().any(|x| x.eq_ignore_ascii_case(e)))
+        })
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
+/// Plans a [`Standalone`] query into `graph` and returns its `library.query` node, whose
+/// inputs are the index and the target's features. The stages are those `plan` and
+/// `plan_similar` add, with their kinds, versions and keys, so a directory ranked from the
+/// command line and a scene's library of it share cached features. The target is read as
+/// an entry is (`library.features` of its file, not a `sample`), as the command always has;
+/// errors name files by their full paths, as the command's always have.
+pub fn plan_standalone(graph: &mut crate::graph::Graph, q: Standalone, budget: crate::graph::Budget) -> NodeId {
+    let params =
+        FeatureParams { bins: q.bins, size: q.size, resample: true, luma: Luma::Mean, ..FeatureParams::default() };
+    let key = serde_json::to_string(&params).expect("serialises");
+    let features = |graph: &mut crate::graph::Graph, file: &PathBuf, label: String| {
+        let shown = file.display().to_string();
+        let stage = FnStage::new("library.features", 1, key.clone(), move |cx| {
+            let img = decode_entry(&cx.file(0)?, &shown, budget)?;
+            lib::features(&img, &params).map_err(|e| StageError::new(format!("`{shown}`: {e}")).in_file(0))
+        });
+        graph.add(crate::graph::Node {
+            label,
+            stage: Box::new(stage),
+            inputs: vec![],
+            files: vec![file.clone()],
+            origin: 0,
+        })
+    };
+    let names: Vec<String> =
+        q.files.iter().map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()).collect();
+    let nodes: Vec<NodeId> =
+        q.files.iter().zip(&names).map(|(f, name)| features(graph, f, format!("library ({name})"))).collect();
+    let target = match q.files.iter().position(|f| *f == q.target) {
+        Some(i) => nodes[i],
+        None => features(graph, &q.target, format!("target {}", q.target.display())),
+    };
+    let key = serde_json::json!({ "names": names }).to_string();
+    let stage = FnStage::new("library.index", 1, key, move |cx| {
+        let features = (0..cx.input_count()).map(|i| (*cx.input::<Features>(i)).clone()).collect();
+        Ok(Index { names: names.clone(), features })
+    });
+    let index = graph.add(crate::graph::Node {
+        label: "library".into(),
+        stage: Box::new(stage),
+        inputs: nodes,
+        files: vec![],
+        origin: 0,
+    });
+    let query = QueryParams { axes: q.axes, normalise: q.normalise, histogram: HistogramNorm::Fraction, exclude: None };
+    let (k, randomness, seed, to) = (q.k, q.randomness, q.seed, q.target.display().to_string());
+    let key =
+        serde_json::json!({ "query": query, "k": k, "randomness": randomness, "seed": seed, "to": to }).to_string();
+    let stage = FnStage::new("library.query", 1, key, move |cx| {
+        let index = cx.input::<Index>(0);
+        let target = cx.input::<Features>(1);
+        let chosen = lib::query(&index.features, &target, &query, k, randomness, seed)
+            .map_err(|e| StageError::new(e.to_string()))?;
+        Ok(Ranking {
+            target: to.clone(),
+            axes: query.axes.iter().map(axis_name).collect(),
+            candidates: chosen
+                .into_iter()
+                .map(|r| Candidate {
+                    name: index.names[r.index].clone(),
+                    index: r.index,
+                    distance: r.distance,
+                    axes: r.axes,
+                    raw: r.raw,
+                })
+                .collect(),
+        })
+    });
+    graph.add(crate::graph::Node {
+        label: "similar (query)".into(),
+        stage: Box::new(stage),
+        inputs: vec![index, target],
+        files: vec![],
+        origin: 0,
+    })
+}
