@@ -62,3 +62,22 @@ fn a_reference_of_the_wrong_type_says_what_would_do() {
     assert!(err.contains("`m` is a map, but an image is expected here"), "{err}");
     assert!(err.contains("an image comes from a sample or layer"), "{err}");
 }
+
+#[test]
+fn a_fractional_pixel_count_is_refused_where_it_is_written() {
+    // Was: `block = 32.4 px` silently became 32.
+    let scene =
+        "sample s { image = \"s.png\" }\nlayer l {\n  quilt = s\n  block = 32.4 px\n}\noutput \"l.png\" { from = l }\n";
+    let err = common::failed_build("fractional_block", scene, &[("s.png", &texture(40, 40))]);
+    assert!(err.contains("`32.4 px` is not a whole number of pixels"), "{err}");
+    assert!(err.contains("use `32 px`") && err.contains("scene.tess:4:11"), "{err}");
+    // Whole values, with or without the unit, are fine.
+    for block in ["16 px", "16"] {
+        let scene = format!(
+            "scene {{ size = 32 x 32 }}\nsample s {{ image = \"s.png\" }}\nlayer l {{\n  quilt = s\n  block = {block}\n}}\noutput \"l.png\" {{ from = l }}\n"
+        );
+        let p = Project::new(&[("scene.tess", &scene)]);
+        p.write_bytes("s.png", &texture(40, 40));
+        p.tessera(&["build", "scene.tess"]).ok();
+    }
+}

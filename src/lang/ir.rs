@@ -97,6 +97,18 @@ impl Props {
         }
     }
 
+    /// A whole-pixel length (`Ty::Pixels`, checked whole and in range by the schema).
+    pub fn pixels(&self, name: &str) -> usize {
+        self.opt_pixels(name).unwrap_or_else(|| panic!("property `{name}` has no value"))
+    }
+
+    pub fn opt_pixels(&self, name: &str) -> Option<usize> {
+        self.opt_num(name).map(|v| {
+            debug_assert!(v.fract() == 0.0 && v >= 0.0, "`{name}` = {v} is not whole pixels");
+            v as usize
+        })
+    }
+
     pub fn bool(&self, name: &str) -> bool {
         match self.expect(name) {
             Val::Bool(v) => *v,

@@ -525,6 +525,25 @@ impl<'a> Checker<'a> {
                 }
             }
         }
+        if let (Ty::Pixels(range), ValueKind::Number { text, unit, .. }) = (ty, &v.kind) {
+            let text = match unit {
+                Some(u) => format!("{text} {u}"),
+                None => text.clone(),
+            };
+            let val = self.check_value(v, &Ty::Number(Unit::Length, *range), dir, depth + 1)?;
+            if let Val::Num(x) = val {
+                if x.fract() != 0.0 {
+                    self.errors.push(
+                        Diagnostic::error(format!("`{text}` is not a whole number of pixels"))
+                            .with_code("tessera::whole_pixels")
+                            .with_label(v.span, format!("{x} pixels"))
+                            .with_help(format!("this property counts pixels: use `{} px`", x.round())),
+                    );
+                    return None;
+                }
+            }
+            return Some(val);
+        }
         match (ty, &v.kind) {
             (Ty::Number(unit, range), ValueKind::Number { value, unit: u, text }) => {
                 if !value.is_finite() || value.abs() > MAX_NUMBER {

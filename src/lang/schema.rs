@@ -173,6 +173,8 @@ pub const UNIT: Range = Range { min: 0.0, max: 1.0 };
 #[derive(Debug)]
 pub enum Ty {
     Number(Unit, Range),
+    /// A length in whole pixels (`px` or no unit): a fraction is a diagnostic, never rounded.
+    Pixels(Range),
     Int(i64, i64),
     Bool,
     /// `W x H`, whole pixels from 1 to 16384.
@@ -208,6 +210,7 @@ impl Ty {
     pub fn describe(&self) -> String {
         match self {
             Ty::Number(u, _) => u.describe().to_string(),
+            Ty::Pixels(_) => "a whole number of pixels (`px`)".into(),
             Ty::Int(..) => "an integer".into(),
             Ty::Bool => "`true` or `false`".into(),
             Ty::Size => "a size `W x H`".into(),

@@ -273,6 +273,7 @@ fn value(rng: &mut Rng, p: &PropSpec, names: &Names, depth: usize) -> String {
 fn typed(rng: &mut Rng, prop: &str, ty: &Ty, names: &Names, depth: usize) -> String {
     match ty {
         Ty::Number(unit, range) => number(rng, *unit, *range, names.noise),
+        Ty::Pixels(range) => number(rng, Unit::Length, *range, names.noise),
         Ty::Int(lo, hi) => int(rng, *lo, *hi, names.noise),
         Ty::Bool => (if rng.chance(0.5) { "true" } else { "false" }).into(),
         Ty::Size => size(rng),

@@ -110,15 +110,18 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnos
     let props = &d.props;
     let ((w, h), size_at) = quilt_size(p, d);
     p.check_pixels(d, size_at, (w, h), QUILT_BYTES_PER_PIXEL)?;
-    let block = props.num("block").round() as usize;
-    let overlap = props.opt_num("overlap").map(|o| o.round() as usize).unwrap_or((block / 6).max(1));
+    let block = props.pixels("block");
+    let overlap = props.opt_pixels("overlap").unwrap_or(quilt::default_overlap(block));
     if overlap >= block {
         return Err(Diagnostic::error(format!(
             "the overlap ({overlap} px) must be smaller than the block ({block} px)"
         ))
         .with_code("tessera::quilt")
         .with_label(props.span("overlap").unwrap_or(d.name_span), "too large")
-        .with_help(format!("blocks are placed every `block − overlap` pixels; try `overlap = {} px`", block / 6)));
+        .with_help(format!(
+            "blocks are placed every `block − overlap` pixels; try `overlap = {} px`",
+            quilt::default_overlap(block)
+        )));
     }
     if props.get("mix").is_some() != props.get("density").is_some() {
         let (have, missing) = if props.get("mix").is_some() { ("mix", "density") } else { ("density", "mix") };
@@ -175,7 +178,7 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnos
     p.parts.insert((d.name.clone(), "quilt"), quilt_node);
 
     if spec::SEAMS.get(props.enumeration("seams")) == spec::SeamRemoval::Gradient {
-        let radius = props.num("seam_band").round() as usize;
+        let radius = props.pixels("seam_band");
         let solver = solver_of(d);
         let key = serde_json::json!({ "radius": radius, "solver": solver }).to_string();
         let mut inputs = vec![quilt_node, p.result(sample)];
@@ -271,19 +274,44 @@ fn quilt_error(e: QuiltError) -> StageError {
         ),
         QuiltError::OverlapTooLarge { .. } | QuiltError::TileableZeroOverlap => StageError::new(msg).at_prop("overlap"),
         QuiltError::TileableTooSmall { .. } => StageError::new(msg).at_prop("tileable"),
-        QuiltError::ChannelMismatch { what, .. } if what.contains("weight") => StageError::new(msg).at_prop("weights"),
-        QuiltError::Invalid { name, .. } => StageError::new(msg).at_prop(match name {
-            "tolerance" => "tolerance",
-            "channel weight" => "weights",
-            "alpha" | "terms" => "alpha",
-            _ => "quilt",
-        }),
-        QuiltError::SizeMismatch { what, .. } if what.contains("guide") => StageError::new(msg).at_prop("guide"),
-        QuiltError::SizeMismatch { what, .. } if what.contains("density") => StageError::new(msg).at_prop("density"),
-        QuiltError::SizeMismatch { what, .. } if what.contains("orientation") => {
-            StageError::new(msg).at_prop("orientation")
-        }
+        QuiltError::Empty { what: input }
+        | QuiltError::SizeMismatch { what: input, .. }
+        | QuiltError::ChannelMismatch { what: input, .. }
+        | QuiltError::NonFinite { what: input, .. }
+        | QuiltError::Invalid { name: input, .. } => StageError::new(msg).at_prop(prop_of(input)),
         _ => StageError::new(msg).at_prop("quilt"),
+    }
+}
+
+/// The layer property that sets a quilting input.
+fn prop_of(input: quilt::Input) -> &'static str {
+    use quilt::Input as I;
+    match input {
+        I::Block => "block",
+        I::Tolerance => "tolerance",
+        I::ForcedSearch => "forced_search",
+        I::CandidateStride => "stride",
+        I::ChannelWeights | I::ChannelWeight => "weights",
+        I::Guide | I::GuideChannelMap | I::GuideChannelIndex | I::GuideChannels | I::LabGuide => "guide",
+        I::GuideWeights | I::GuideWeight => "guide_weight",
+        I::OverlapWeight | I::DepthWeight | I::TermWeights => "alpha",
+        I::Density => "density",
+        I::Orientation => "orientation",
+        I::OrientationCopies => "copies",
+        I::Occupancy => "on",
+        I::Output
+        | I::Sample
+        | I::Samples
+        | I::SampleChannels
+        | I::DepthChannel
+        | I::AllowedPositions
+        | I::Gathered
+        | I::GatheredImages
+        | I::QuiltResult
+        | I::IndexMap
+        | I::IndexMapEntry
+        | I::SearchRate
+        | I::Neighbourhood => "quilt",
     }
 }
 
@@ -353,7 +381,7 @@ fn plan_blend(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         seam: spec::SEAM_GUIDANCE.get(props.enumeration("seam")),
         domain: match spec::DOMAINS.get(props.enumeration("domain")) {
             spec::DomainChoice::Mask => blend::Domain::Mask,
-            spec::DomainChoice::Band => blend::Domain::Band { radius: props.num("band").round().max(1.0) as usize },
+            spec::DomainChoice::Band => blend::Domain::Band { radius: props.pixels("band").max(1) },
             spec::DomainChoice::Whole => blend::Domain::Whole,
         },
         solver: solver_of(d),
@@ -411,8 +439,9 @@ fn blend_error(e: BlendError) -> StageError {
     match e {
         BlendError::SizeMismatch { .. } | BlendError::SourceCount { .. } => StageError::new(msg).at_prop("blend"),
         BlendError::BadParameter { name, .. } => StageError::new(msg).at_prop(match name {
-            "tol" | "max_iter" | "solver" => "solver",
-            _ => "mode",
+            blend::Param::Tol | blend::Param::MaxTol | blend::Param::MaxIter | blend::Param::Smooth => "solver",
+            blend::Param::RimSource => "topology",
+            blend::Param::Labels => "mask",
         }),
         _ => StageError::new(msg).at_prop("blend"),
     }

@@ -72,13 +72,13 @@ pub static SPEC: KindSpec = KindSpec {
         ),
         prop(
             "block",
-            Ty::Number(Unit::Length, Range { min: 2.0, max: 4096.0 }),
+            Ty::Pixels(Range { min: 2.0, max: 4096.0 }),
             Default::Text("32 px"),
             "Side of the square blocks copied from the sample.",
         ),
         prop(
             "overlap",
-            Ty::Number(Unit::Length, NON_NEG),
+            Ty::Pixels(NON_NEG),
             Default::Absent,
             "Overlap between neighbouring blocks; must be smaller than `block`. Default block / 6.",
         ),
@@ -170,7 +170,7 @@ pub static SPEC: KindSpec = KindSpec {
         ),
         prop(
             "seam_band",
-            Ty::Number(Unit::Length, Range { min: 1.0, max: 256.0 }),
+            Ty::Pixels(Range { min: 1.0, max: 256.0 }),
             Default::Text("4 px"),
             "Half-width of the band solved by `seams = gradient`.",
         ),
@@ -213,7 +213,7 @@ pub static SPEC: KindSpec = KindSpec {
         ),
         prop(
             "band",
-            Ty::Number(Unit::Length, POSITIVE),
+            Ty::Pixels(POSITIVE),
             Default::Text("8 px"),
             "Half-width of the band for `domain = band`.",
         ),

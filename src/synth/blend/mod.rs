@@ -251,7 +251,39 @@ pub enum BlendError {
     /// A label map names a source that does not exist.
     LabelOutOfRange { x: usize, y: usize, label: u32, sources: usize },
     /// A parameter is out of its range.
-    BadParameter { name: &'static str, reason: String },
+    BadParameter { name: Param, reason: String },
+}
+
+/// Which blend parameter an error is about: callers point at the place to fix from this,
+/// never from the message text.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Param {
+    Labels,
+    Tol,
+    MaxTol,
+    MaxIter,
+    Smooth,
+    RimSource,
+}
+
+impl Param {
+    /// How messages name it.
+    pub fn text(self) -> &'static str {
+        match self {
+            Param::Labels => "labels",
+            Param::Tol => "tol",
+            Param::MaxTol => "max_tol",
+            Param::MaxIter => "max_iter",
+            Param::Smooth => "smooth",
+            Param::RimSource => "rim source",
+        }
+    }
+}
+
+impl fmt::Display for Param {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.text())
+    }
 }
 
 impl fmt::Display for BlendError {

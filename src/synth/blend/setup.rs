@@ -8,7 +8,7 @@ use super::lanes::{F32x4, Lanes, Pooled};
 use super::multigrid::{self, CycleParams, Driver, Hierarchy, Level, SolveBuffers, Stop};
 use super::spectral::{solve_neumann, solve_periodic};
 use super::{wrap_or_skip, Image, WrapGuidance};
-use super::{BlendError, BlendParams, Domain, Method, Mode, Seam, Selector, SolveReport, SolverKind, Topology};
+use super::{BlendError, BlendParams, Domain, Method, Mode, Param, Seam, Selector, SolveReport, SolverKind, Topology};
 
 /// Rows per reduction block in this file's f64 sums (fixed: thread-count independent).
 const ROWS_PER_BLOCK: usize = 16;
@@ -57,7 +57,7 @@ pub(super) fn validate(
         Selector::Labels(l) => {
             if l.len() != w * h {
                 return Err(BlendError::BadParameter {
-                    name: "labels",
+                    name: Param::Labels,
                     reason: format!("has {} entries; the sources are {w}x{h} = {}", l.len(), w * h),
                 });
             }
@@ -81,21 +81,24 @@ pub(super) fn validate(
     }
     let s = &params.solver;
     if !(s.tol > 0.0 && s.tol.is_finite()) {
-        return Err(BlendError::BadParameter { name: "tol", reason: format!("{} is not a positive number", s.tol) });
+        return Err(BlendError::BadParameter {
+            name: Param::Tol,
+            reason: format!("{} is not a positive number", s.tol),
+        });
     }
     if s.max_tol.is_nan() || s.max_tol <= 0.0 {
-        return Err(BlendError::BadParameter { name: "max_tol", reason: format!("{} is not positive", s.max_tol) });
+        return Err(BlendError::BadParameter { name: Param::MaxTol, reason: format!("{} is not positive", s.max_tol) });
     }
     if s.max_iter == 0 {
-        return Err(BlendError::BadParameter { name: "max_iter", reason: "must be at least 1".into() });
+        return Err(BlendError::BadParameter { name: Param::MaxIter, reason: "must be at least 1".into() });
     }
     if s.smooth == 0 {
-        return Err(BlendError::BadParameter { name: "smooth", reason: "must be at least 1".into() });
+        return Err(BlendError::BadParameter { name: Param::Smooth, reason: "must be at least 1".into() });
     }
     if let Topology::Rim { source } = params.topology {
         if source >= sources.len() {
             return Err(BlendError::BadParameter {
-                name: "rim source",
+                name: Param::RimSource,
                 reason: format!("source {source} does not exist ({} given)", sources.len()),
             });
         }

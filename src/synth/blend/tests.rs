@@ -145,7 +145,7 @@ fn item01_size_mismatch_is_an_error_with_details() {
     assert_eq!(e, BlendError::SourceCount { expected: 2, found: 3 });
     let mut p = params();
     p.solver.tol = 0.0;
-    assert!(matches!(blend_two(&a, &a, &m, &p).unwrap_err(), BlendError::BadParameter { name: "tol", .. }));
+    assert!(matches!(blend_two(&a, &a, &m, &p).unwrap_err(), BlendError::BadParameter { name: Param::Tol, .. }));
     p = params();
     p.topology = Topology::Rim { source: 5 };
     assert!(matches!(blend_two(&a, &a, &m, &p).unwrap_err(), BlendError::BadParameter { .. }));

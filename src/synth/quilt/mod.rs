@@ -48,7 +48,8 @@ mod tests;
 
 pub use cut::{min_cut_horizontal, min_cut_vertical};
 pub use params::{
-    Coherence, Equalise, Guide, Metric, Orientation, QuiltError, QuiltOptions, QuiltParams, SampleChoice, Terms,
+    default_overlap, Coherence, Equalise, Guide, Input, Metric, Orientation, QuiltError, QuiltOptions, QuiltParams,
+    SampleChoice, Terms,
 };
 pub use pixel::{pixel_synthesis, PixelParams, PixelResult};
 pub use rotate::rotate_sample;
@@ -241,11 +242,15 @@ pub fn gather_many(result: &QuiltResult, others: &[&Image]) -> Result<Image, Qui
     let mut rotated: Vec<Image> = Vec::with_capacity(result.sources.len());
     for s in &result.sources {
         let o = others[s.sample];
-        params::check_size("gathered image", o, s.width, s.height)?;
+        params::check_size(Input::Gathered, o, s.width, s.height)?;
         if o.channels != channels {
-            return Err(QuiltError::ChannelMismatch { what: "gathered images", expected: channels, got: o.channels });
+            return Err(QuiltError::ChannelMismatch {
+                what: Input::GatheredImages,
+                expected: channels,
+                got: o.channels,
+            });
         }
-        params::check_finite_image("gathered image", o)?;
+        params::check_finite_image(Input::Gathered, o)?;
         rotated.push(if s.angle == 0.0 { o.clone() } else { rotate_sample(o, s.angle).0 });
     }
     let refs: Vec<&Image> = rotated.iter().collect();

@@ -94,6 +94,12 @@ pub struct QuiltParams {
     pub seed: u64,
 }
 
+/// The overlap of blocks when none is given: a sixth of the block (Efros & Freeman's choice),
+/// at least one pixel.
+pub fn default_overlap(block: usize) -> usize {
+    (block / 6).max(1)
+}
+
 impl QuiltParams {
     /// Efros–Freeman defaults for an output of the given size: overlap = block/6, tolerance 0.1, SSD,
     /// min–max equalisation, no coherence shortcut, stride 1, not tileable.
@@ -102,7 +108,7 @@ impl QuiltParams {
             width,
             height,
             block,
-            overlap: (block / 6).max(1),
+            overlap: default_overlap(block),
             tolerance: 0.1,
             metric: Metric::Ssd,
             equalise: Equalise::MinMax,
@@ -187,12 +193,98 @@ impl Default for QuiltOptions<'_> {
 }
 
 /// Invalid quilting inputs. Messages are written for scene authors.
+/// Which input or parameter of a quilt an error is about: callers point at the place to
+/// fix from this, never from the message text.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Input {
+    Output,
+    Block,
+    Sample,
+    Samples,
+    SampleChannels,
+    ChannelWeights,
+    ChannelWeight,
+    DepthChannel,
+    Occupancy,
+    Guide,
+    GuideWeights,
+    GuideWeight,
+    GuideChannelMap,
+    GuideChannelIndex,
+    GuideChannels,
+    LabGuide,
+    Density,
+    Orientation,
+    OrientationCopies,
+    AllowedPositions,
+    Gathered,
+    GatheredImages,
+    QuiltResult,
+    IndexMap,
+    IndexMapEntry,
+    Tolerance,
+    ForcedSearch,
+    CandidateStride,
+    OverlapWeight,
+    DepthWeight,
+    TermWeights,
+    SearchRate,
+    Neighbourhood,
+}
+
+impl Input {
+    /// How messages name it.
+    pub fn text(self) -> &'static str {
+        match self {
+            Input::Output => "output",
+            Input::Block => "block",
+            Input::Sample => "sample",
+            Input::Samples => "samples",
+            Input::SampleChannels => "sample channel counts",
+            Input::ChannelWeights => "channel weights",
+            Input::ChannelWeight => "channel weight",
+            Input::DepthChannel => "depth channel index",
+            Input::Occupancy => "occupancy mask",
+            Input::Guide => "guide image",
+            Input::GuideWeights => "guide weights",
+            Input::GuideWeight => "guide weight",
+            Input::GuideChannelMap => "guide channel map",
+            Input::GuideChannelIndex => "guide channel index",
+            Input::GuideChannels => "guide channels",
+            Input::LabGuide => "Lab guide",
+            Input::Density => "density map",
+            Input::Orientation => "orientation field",
+            Input::OrientationCopies => "orientation copies",
+            Input::AllowedPositions => "allowed-position map",
+            Input::Gathered => "gathered image",
+            Input::GatheredImages => "gathered images",
+            Input::QuiltResult => "quilt result",
+            Input::IndexMap => "index map",
+            Input::IndexMapEntry => "index map entry",
+            Input::Tolerance => "tolerance",
+            Input::ForcedSearch => "forced_search",
+            Input::CandidateStride => "candidate_stride",
+            Input::OverlapWeight => "overlap weight",
+            Input::DepthWeight => "depth weight",
+            Input::TermWeights => "error term weights",
+            Input::SearchRate => "search_rate",
+            Input::Neighbourhood => "neighbourhood",
+        }
+    }
+}
+
+impl fmt::Display for Input {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.text())
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub enum QuiltError {
     /// No sample was given, or more than the choice rule accepts.
     SampleCount { got: usize, expected: &'static str },
     /// Output, block or sample without pixels or channels.
-    Empty { what: &'static str },
+    Empty { what: Input },
     /// The block does not fit in a sample (or in a rotated copy's valid area).
     BlockTooLarge { block: usize, sample: usize, width: usize, height: usize },
     /// Overlap must be smaller than the block.
@@ -202,13 +294,13 @@ pub enum QuiltError {
     /// A tileable output must be at least one block wide and high.
     TileableTooSmall { block: usize, width: usize, height: usize },
     /// An image that must match another's size does not.
-    SizeMismatch { what: &'static str, expected: [usize; 2], got: [usize; 2] },
+    SizeMismatch { what: Input, expected: [usize; 2], got: [usize; 2] },
     /// Channel counts disagree (between samples, with a map, or a channel index out of range).
-    ChannelMismatch { what: &'static str, expected: usize, got: usize },
+    ChannelMismatch { what: Input, expected: usize, got: usize },
     /// NaN or infinity in an input image.
-    NonFinite { what: &'static str, count: usize },
+    NonFinite { what: Input, count: usize },
     /// A numeric parameter outside its range (or not finite).
-    Invalid { name: &'static str, value: f64, expected: &'static str },
+    Invalid { name: Input, value: f64, expected: &'static str },
     /// No candidate block position is allowed in some sample.
     NoCandidates { sample: usize },
     /// Seam removal needs every output pixel filled (no occupancy mask yet).
@@ -270,7 +362,7 @@ impl fmt::Display for QuiltError {
 
 impl std::error::Error for QuiltError {}
 
-pub(super) fn check_finite_image(what: &'static str, img: &Image) -> Result<(), QuiltError> {
+pub(super) fn check_finite_image(what: Input, img: &Image) -> Result<(), QuiltError> {
     let count = img.data.iter().filter(|v| !v.is_finite()).count();
     if count > 0 {
         return Err(QuiltError::NonFinite { what, count });
@@ -285,20 +377,14 @@ pub(super) fn check_finite_image(what: &'static str, img: &Image) -> Result<(), 
     Ok(())
 }
 
-pub(super) fn check_size(what: &'static str, img: &Image, width: usize, height: usize) -> Result<(), QuiltError> {
+pub(super) fn check_size(what: Input, img: &Image, width: usize, height: usize) -> Result<(), QuiltError> {
     if img.width != width || img.height != height {
         return Err(QuiltError::SizeMismatch { what, expected: [width, height], got: [img.width, img.height] });
     }
     Ok(())
 }
 
-pub(super) fn check_range(
-    name: &'static str,
-    value: f32,
-    lo: f32,
-    hi: f32,
-    expected: &'static str,
-) -> Result<(), QuiltError> {
+pub(super) fn check_range(name: Input, value: f32, lo: f32, hi: f32, expected: &'static str) -> Result<(), QuiltError> {
     if !(value >= lo && value <= hi) {
         return Err(QuiltError::Invalid { name, value: f64::from(value), expected });
     }

@@ -13,7 +13,7 @@
 
 use rayon::prelude::*;
 
-use super::params::{check_finite_image, check_range, QuiltError};
+use super::params::{check_finite_image, check_range, Input, QuiltError};
 use crate::raster::Image;
 use crate::synth::rng::Rng;
 
@@ -60,21 +60,21 @@ fn downsample(img: &Image) -> Image {
 
 /// Pixel-based synthesis of a `width × height` image from `sample`.
 pub fn pixel_synthesis(sample: &Image, p: &PixelParams) -> Result<PixelResult, QuiltError> {
-    check_finite_image("sample", sample)?;
+    check_finite_image(Input::Sample, sample)?;
     if sample.width == 0 || sample.height == 0 || sample.channels == 0 {
-        return Err(QuiltError::Empty { what: "sample" });
+        return Err(QuiltError::Empty { what: Input::Sample });
     }
     if p.width == 0 || p.height == 0 {
-        return Err(QuiltError::Empty { what: "output" });
+        return Err(QuiltError::Empty { what: Input::Output });
     }
     if p.neighbourhood < 3 || p.neighbourhood % 2 == 0 {
         return Err(QuiltError::Invalid {
-            name: "neighbourhood",
+            name: Input::Neighbourhood,
             value: p.neighbourhood as f64,
             expected: "an odd size ≥ 3",
         });
     }
-    check_range("search_rate", p.search_rate, 0.0, 1.0, "a fraction in [0, 1]")?;
+    check_range(Input::SearchRate, p.search_rate, 0.0, 1.0, "a fraction in [0, 1]")?;
     let levels = p.levels.unwrap_or_else(|| (sample.width.min(sample.height) / 8).max(1).ilog2() as usize);
     let mut spyr = vec![sample.clone()];
     for _ in 0..levels {

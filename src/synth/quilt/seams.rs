@@ -30,7 +30,7 @@
 
 use std::borrow::Cow;
 
-use super::params::{check_finite_image, check_size, QuiltError};
+use super::params::{check_finite_image, check_size, Input, QuiltError};
 use super::rotate::rotate_sample;
 use super::{IndexMap, QuiltResult};
 use crate::raster::Image;
@@ -127,10 +127,10 @@ fn validate(result: &QuiltResult, samples: &[&Image]) -> Result<(), QuiltError> 
     let (img, idx) = (&result.image, &result.index);
     let (w, h) = (img.width, img.height);
     if w == 0 || h == 0 || img.channels == 0 {
-        return Err(QuiltError::Empty { what: "quilt result" });
+        return Err(QuiltError::Empty { what: Input::QuiltResult });
     }
     if idx.width != w || idx.height != h {
-        return Err(QuiltError::SizeMismatch { what: "index map", expected: [w, h], got: [idx.width, idx.height] });
+        return Err(QuiltError::SizeMismatch { what: Input::IndexMap, expected: [w, h], got: [idx.width, idx.height] });
     }
     let empty = idx.block.iter().filter(|&&b| b == IndexMap::EMPTY).count();
     if empty > 0 {
@@ -142,11 +142,11 @@ fn validate(result: &QuiltResult, samples: &[&Image]) -> Result<(), QuiltError> 
     }
     for s in &result.sources {
         let o = samples[s.sample];
-        check_size("sample", o, s.width, s.height)?;
+        check_size(Input::Sample, o, s.width, s.height)?;
         if o.channels != img.channels {
-            return Err(QuiltError::ChannelMismatch { what: "samples", expected: img.channels, got: o.channels });
+            return Err(QuiltError::ChannelMismatch { what: Input::Samples, expected: img.channels, got: o.channels });
         }
-        check_finite_image("sample", o)?;
+        check_finite_image(Input::Sample, o)?;
     }
     for i in 0..w * h {
         let (b, s) = (idx.block[i] as usize, idx.source[i] as usize);
@@ -156,7 +156,7 @@ fn validate(result: &QuiltResult, samples: &[&Image]) -> Result<(), QuiltError> 
             && (idx.y[i] as usize) < result.sources[s].height;
         if !ok {
             return Err(QuiltError::Invalid {
-                name: "index map entry",
+                name: Input::IndexMapEntry,
                 value: i as f64,
                 expected: "a block, source and position of this result",
             });
@@ -610,7 +610,10 @@ mod tests {
         assert!(e.to_string().contains("not the ones the result was quilted from"), "{e}");
         let bad = SeamParams { solver: Solver { max_iter: 0, ..Solver::default() }, ..sp };
         let e = remove_seams(&r, &[&sample], &bad).unwrap_err();
-        assert!(matches!(e, QuiltError::Blend(BlendError::BadParameter { name: "max_iter", .. })), "{e:?}");
+        assert!(
+            matches!(e, QuiltError::Blend(BlendError::BadParameter { name: crate::synth::blend::Param::MaxIter, .. })),
+            "{e:?}"
+        );
         assert!(e.to_string().starts_with("seam removal failed: "), "{e}");
     }
 }

@@ -816,19 +816,19 @@ fn invalid_inputs_give_their_error_variant() {
     let with = |samples: &[&Image], o: &QuiltOptions| quilt_with(samples, &p, o).unwrap_err();
     let small = Image::new(10, 64, 1);
     let e = with(&[&s], &QuiltOptions { occupancy: Some(&small), ..QuiltOptions::default() });
-    assert!(matches!(e, QuiltError::SizeMismatch { what: "occupancy mask", .. }), "{e:?}");
+    assert!(matches!(e, QuiltError::SizeMismatch { what: Input::Occupancy, .. }), "{e:?}");
     let g = Image::new(64, 60, 3);
     let e = with(
         &[&s],
         &QuiltOptions { guide: Some(Guide { image: &g, weights: None, channels: None }), ..QuiltOptions::default() },
     );
-    assert!(matches!(e, QuiltError::SizeMismatch { what: "guide image", .. }), "{e:?}");
+    assert!(matches!(e, QuiltError::SizeMismatch { what: Input::Guide, .. }), "{e:?}");
     let two = noise_texture(32, 2, 4, 52);
     assert!(matches!(with(&[&s, &two], &QuiltOptions::default()), QuiltError::ChannelMismatch { .. }));
     let mut nan = s.clone();
     nan.data[5] = f32::NAN;
     nan.data[9] = f32::INFINITY;
-    assert_eq!(with(&[&nan], &QuiltOptions::default()), QuiltError::NonFinite { what: "sample", count: 2 });
+    assert_eq!(with(&[&nan], &QuiltOptions::default()), QuiltError::NonFinite { what: Input::Sample, count: 2 });
     let mut inf_guide = Image::new(64, 64, 3);
     inf_guide.data[0] = f32::NEG_INFINITY;
     let e = with(
@@ -838,7 +838,7 @@ fn invalid_inputs_give_their_error_variant() {
             ..QuiltOptions::default()
         },
     );
-    assert!(matches!(e, QuiltError::NonFinite { what: "guide image", count: 1 }));
+    assert!(matches!(e, QuiltError::NonFinite { what: Input::Guide, count: 1 }));
     let d = Image::new(64, 64, 1);
     assert!(matches!(
         with(&[&s], &QuiltOptions { choice: SampleChoice::Density(&d), ..QuiltOptions::default() }),
