@@ -857,11 +857,13 @@ fn every_cited_source_is_in_the_references() {
             }
             for cite in line.split("[references: ").skip(1) {
                 count += 1;
-                let Some(body) = cite.split(']').next() else { continue };
-                let mut parts = body.splitn(2, ' ');
-                let doc = parts.next().unwrap_or("");
+                let Some((body, _)) = cite.split_once(']') else {
+                    bad.push(format!("{rel}:{}: a citation must end on its line: {}", n + 1, line.trim()));
+                    continue;
+                };
+                let (doc, sections) = body.split_once(' ').unwrap_or((body, ""));
                 let mut want = vec![doc.to_string()];
-                for sec in parts.next().unwrap_or("").split(", ") {
+                for sec in sections.split(", ").filter(|s| !s.trim().is_empty()) {
                     let sec = sec.trim();
                     match sec.strip_prefix('§') {
                         Some(s) => want.push(format!("{doc}-{s}")),
