@@ -186,9 +186,14 @@ impl Tree {
         None
     }
 
-    /// Every library path a file names, resolved, with its line.
-    fn uses(&self, file: usize) -> Vec<(usize, Vec<String>)> {
-        self.files[file].refs.iter().filter_map(|r| Some((r.line, self.resolve(file, r)?))).collect()
+    /// Every library path the shipped code of a file names, resolved, with its line: none for
+    /// test code (`#[cfg(test)]` modules and files), which may take fixtures from anywhere.
+    fn shipped_uses(&self, file: usize) -> Vec<(usize, Vec<String>)> {
+        if self.test_files.contains(&file) {
+            return Vec::new();
+        }
+        let shipped = self.files[file].refs.iter().filter(|r| !r.test);
+        shipped.filter_map(|r| Some((r.line, self.resolve(file, r)?))).collect()
     }
 
     /// File → file imports of the shipped code: `from` names something `to` defines. A
@@ -199,11 +204,10 @@ impl Tree {
     fn imports(&self) -> BTreeMap<usize, BTreeMap<usize, usize>> {
         let mut edges: BTreeMap<usize, BTreeMap<usize, usize>> = BTreeMap::new();
         for i in 0..self.files.len() {
-            if self.is_bin(i) || self.test_files.contains(&i) {
+            if self.is_bin(i) {
                 continue;
             }
-            let shipped = self.files[i].refs.iter().filter(|r| !r.test);
-            for (line, abs) in shipped.filter_map(|r| Some((r.line, self.resolve(i, r)?))) {
+            for (line, abs) in self.shipped_uses(i) {
                 let Some(t) = self.target(&abs) else { continue };
                 let tm = &self.files[t].module;
                 let ancestor = tm.len() < self.files[i].module.len() && self.files[i].module.starts_with(tm);
@@ -567,16 +571,16 @@ fn tree() -> Tree {
 
 // ---- the layering rules ---------------------------------------------------------------------------
 
-/// Lines of the files below `dir` that name a library module whose first segment is in
-/// `forbidden` (or, with `allowed`, not in it).
-fn layer_violations(tree: &Tree, dir: &str, rule: &dyn Fn(&str) -> bool) -> Vec<String> {
+/// Lines of the shipped code below `dir` (or of the file `dir`) that name a library path
+/// whose top module (`synth`, `graph`, ...) `allowed` refuses.
+fn layer_violations(tree: &Tree, dir: &str, allowed: &dyn Fn(&str) -> bool) -> Vec<String> {
     let mut bad = Vec::new();
     for (i, f) in tree.files.iter().enumerate() {
         if !f.rel.starts_with(dir) {
             continue;
         }
-        for (line, abs) in tree.uses(i) {
-            if let Some(top) = abs.first().filter(|t| !rule(t)) {
+        for (line, abs) in tree.shipped_uses(i) {
+            if let Some(top) = abs.first().filter(|t| !allowed(t)) {
                 let src = f.text.lines().nth(line - 1).unwrap_or("").trim();
                 bad.push(format!("{}:{line}: uses `{}` ({top}): {src}", f.rel, abs.join("::")));
             }
@@ -937,7 +941,11 @@ fn a_made_up_two_file_cycle_is_reported_and_reexports_are_followed() {
 fn a_made_up_layer_violation_is_reported_with_its_line() {
     let t = made_up(&[
         ("src/lib.rs", "//! Root.\npub mod synth;\npub mod graph;\npub mod raster;\n"),
-        ("src/synth/mod.rs", "//! S.\nuse crate::raster::Image;\nuse crate::{graph::Key, raster};\n"),
+        (
+            "src/synth/mod.rs",
+            "//! S.\nuse crate::raster::Image;\nuse crate::{graph::Key, raster};\n\
+             #[cfg(test)]\nmod tests {\n    use crate::graph::run;\n}\n",
+        ),
         ("src/synth/deep.rs", "//! D.\nfn f() { super::super::graph::run(); }\n"),
         ("src/graph/mod.rs", "//! G.\npub struct Key;\npub fn run() {}\n"),
         ("src/raster/mod.rs", "//! R.\npub struct Image;\n"),
