@@ -1,8 +1,8 @@
 //! The architecture's rules (`docs/architecture.md`, "Invariants"), checked on the source
 //! text: which layer may import which, that every file opens with a module doc, that no two
 //! files import each other round a cycle, that no kind name is matched outside its own module,
-//! and that every cited source exists in `docs/references.md`. Text scanning only: no build
-//! of the library is inspected, so the whole file runs in milliseconds.
+//! and that every cited source exists in `docs/references.md`. Text scanning only (nothing
+//! is compiled or run), so the whole file takes well under a second.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
