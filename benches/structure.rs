@@ -1,4 +1,4 @@
-//! Structure synthesis at the sizes of digest 004 §7.2: flooding Voronoi on 1024² with 300
+//! Structure synthesis at the target sizes of [references: frasson §3.6]: flooding Voronoi on 1024² with 300
 //! generators, and a full stage 1 (sampling + 50 Lloyd iterations, 300 regions, 1024²) at
 //! full and at half Lloyd resolution. Target for stage 1: under 2 s on 2 cores.
 

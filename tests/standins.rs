@@ -1,4 +1,4 @@
-//! The structure samples in `samples/standins/` are the synthetic stand-ins of digest 004 §8,
+//! The structure samples in `samples/standins/` are the synthetic stand-ins of [references: frasson §3.6],
 //! generated from seeded procedures. This test regenerates them and checks that the
 //! committed files match, so samples, generators and ground truth never drift apart.
 //! Set `TESSERA_REGENERATE=1` to rewrite the files instead.

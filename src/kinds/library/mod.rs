@@ -1,5 +1,5 @@
 //! `library`: a directory of texture samples with their features, and `similar(...)`, the
-//! query that ranks them against a sample (digest 003 §2.3–2.5, §6.2 stages 7–9).
+//! query that ranks them against a sample ([references: welsman-dinelle §4.1, §4.3]).
 //!
 //! ```text
 //! each file ─► library.features ─┐

@@ -1,4 +1,4 @@
-//! `structure`: structure from example (digest 004 §2), as the cached stages of §10.2:
+//! `structure`: structure from example [references: frasson §3], as cached stages:
 //!
 //! ```text
 //! sample's structure file ─► structure.analyse (A1) ─┐
@@ -307,7 +307,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
 
     // S1: generators.
     let mut inputs = vec![a1, surface];
-    // The density map steers sampling only when centres follow it (§10.2: S1 reads the
+    // The density map steers sampling only when centres follow it (S1 reads the
     // occupancy, size and, for `centers = density`, density maps).
     let s1_maps: &[&'static str] =
         if centers(props) == spec::Centers::Density { &["size", "density"] } else { &["size"] };
@@ -329,7 +329,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let s1 = p.add(format!("structure {} (sampling)", d.name), s1, inputs, vec![]);
 
     // S2: Lloyd; with edits, S1e applies them to the relaxed generators and Lloyd runs
-    // again from there (digest §2.10: edits act on the current state).
+    // again from there (edits act on the current state, [references: frasson §3.7.1]).
     let mut s2 = plan_lloyd(p, d, s1, surface, w, h, "lloyd");
     let edits = convert_edits(props)?;
     if !edits.is_empty() {
@@ -576,7 +576,7 @@ fn sample_generators(
     let originals: Vec<Ellipse> = sample.originals().into_iter().map(|(_, e)| e).collect();
     if !o.statistical {
         // Trivial synthesis: the sample's own regions, mapped onto the target, perturbed
-        // and swapped (digest §2.8 a).
+        // and swapped ([references: frasson §3.5.3]).
         let (sx, sy) = (w as f64 / sample.size[0].max(1.0), h as f64 / sample.size[1].max(1.0));
         let all: Vec<Ellipse> = sample
             .ellipses

@@ -1,4 +1,4 @@
-//! The schema of `structure` declarations (digest 004 §10.1).
+//! The schema of `structure` declarations : the parameters of [references: frasson §3].
 
 use crate::lang::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, ANY, POSITIVE, UNIT};
 

@@ -1,4 +1,4 @@
-//! Masks from images (digest 003 §2.2): greyscale intensity, then a cutoff.
+//! Masks from images ([references: welsman-dinelle §4.1]): greyscale intensity, then a cutoff.
 
 use serde::{Deserialize, Serialize};
 

@@ -1,11 +1,11 @@
-//! Gradient-domain (Poisson) blending of two or more sources (digest 003, Welsman-Dinelle
-//! 2007 after Pérez et al. 2003).
+//! Gradient-domain (Poisson) blending of two or more sources ([references: welsman-dinelle §4.2], after
+//! [references: perez]).
 //!
 //! A *selector* says which source each pixel comes from: a binary mask (white = source 1,
 //! the thesis's "second texture", merged into source 0), a soft mask (weight of source 1),
 //! or a label map over any number of sources (patch layers, Voronoi cells). The output is
 //! the function whose 4-neighbour differences best match a *guidance field* built per edge
-//! from the sources (digest §6.3):
+//! from the sources ([references: welsman-dinelle §4.2]):
 //!
 //! - edge inside one label: that source's difference;
 //! - edge across a seam: [`Seam::Insert`] (the higher label's source: for a binary mask the
@@ -22,7 +22,7 @@
 //! [`Domain`] picks the unknowns: `Mask` (the thesis's formulation: pixels of label ≠ 0 or
 //! weight > 0 are solved, every other pixel keeps the composite's value, which acts as the
 //! Dirichlet boundary), `Band` (pixels within a radius of a label seam: the band-Dirichlet
-//! seam removal of §6.3(i)) or `Whole` (every pixel: the global variant of §6.3(ii)).
+//! seam removal) or `Whole` (every pixel: the global variant).
 //! [`Topology`] picks the grid graph: `Torus` (wrap edges, tileable output; default), `Rim`
 //! (no wrap; the outer rim is fixed to a source's values averaged over opposite edges, so
 //! column 0 equals column W−1 and row 0 equals row H−1: the literal reading T2) or `Open`
@@ -33,7 +33,7 @@
 //! preconditioned conjugate gradients (default) or plain multigrid V-cycles on the free
 //! pixels (see `multigrid`).
 //! The masked solvers work on the correction `u = f − f₀` from the composite `f₀`, which is
-//! smooth, and stop at `‖b − L f‖₂ ≤ tol·‖b‖₂` (digest §5 "converged"); each channel's
+//! smooth, and stop at `‖b − L f‖₂ ≤ tol·‖b‖₂` ([references: welsman-dinelle §4.2]); each channel's
 //! [`SolveReport`] gives the iterations and the *true* final residual of the returned f32
 //! image, recomputed in f64.
 //!
@@ -142,7 +142,7 @@ pub struct Solver {
     /// Stop when `‖b − L f‖₂ ≤ tol · ‖b‖₂` ...
     pub tol: f64,
     /// ... and `max |b − L f| ≤ max_tol · range`, where `range` is max − min over the
-    /// sources' values (digest §5: "converged" is relative residual ≤ 1e-6 and max |r| ≤
+    /// sources' values ([references: welsman-dinelle §4.2]: "converged" is relative residual ≤ 1e-6 and max |r| ≤
     /// 1e-3 on the 0..255 scale, hence the default 1e-3/255 of the range).
     pub max_tol: f64,
     /// Iteration cap (CG iterations or V-cycles) of each solve; reaching it sets

@@ -11,7 +11,7 @@
 //! Design, after McAdams, Sifakis & Teran (2010), "A parallel multigrid Poisson solver for
 //! fluids simulation on large grids":
 //! - cell-centred coarsening by 2 × 2; a coarse cell is free only when all its children are
-//!   free ("Dirichlet dominant"). The digest (003 §7) suggests the opposite rule ("free if any
+//!   free ("Dirichlet dominant"). [references: welsman-dinelle §4.2] has the opposite rule ("free if any
 //!   child is free"); both are offered ([`Coarsening`]), and the Dirichlet-dominant one is the
 //!   default because it keeps every coarse operator non-singular (a level with a fixed cell
 //!   has no constant null space) and measured fewer iterations on the disc benchmark.
@@ -64,7 +64,7 @@ pub enum Coarsening {
     /// Free only when every child is free (McAdams et al. 2010). Default.
     #[default]
     AllChildren,
-    /// Free when any child is free (digest 003 §7).
+    /// Free when any child is free (the alternative of [references: welsman-dinelle §4.2]).
     AnyChild,
 }
 

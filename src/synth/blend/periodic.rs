@@ -38,7 +38,7 @@ pub fn make_periodic(img: &Image) -> Image {
     out
 }
 
-/// Tileability statistic (digest 003 item 9c): the mean absolute difference across the wrap
+/// Tileability statistic (Welsman-Dinelle item 9c): the mean absolute difference across the wrap
 /// seams (column W−1 to 0 and row H−1 to 0) divided by the mean absolute difference between
 /// interior neighbours (both directions), over all channels. About 1 for a tileable texture;
 /// large when the wrap is a visible seam. Returns 0 for images without interior differences.

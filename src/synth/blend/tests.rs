@@ -1,6 +1,6 @@
-//! Digest 003 §5 checklist, blending core (items 1–14) and optional items 29, 30, 32.
+//! Checks of [references: welsman-dinelle §4.2]: blending core (items 1–14) and optional items 29, 30, 32.
 //!
-//! Fixtures are synthetic and tileable unless stated. Thresholds quoted by the digest are on
+//! Fixtures are synthetic and tileable unless stated. Thresholds quoted by the checks are on
 //! the 0..255 scale; fixtures that test them are built on that scale too (the blend is
 //! linear, so the scale only matters for the absolute tolerances).
 
@@ -308,7 +308,7 @@ fn item07_identities() {
     let shifted = Image { data: a.data.iter().map(|v| v + 37.0).collect(), ..a.clone() };
     // Tolerance tuned: the identity holds to the solver's tolerance, and at the default
     // (relative 1e-6) the error measured 2.4e-4 (≈ 1e-6 of values near 200), above the
-    // digest's 1e-4. At 1e-8 (8 iterations; the f32 floor) it is within 1e-4.
+    // check's 1e-4. At 1e-8 (8 iterations; the f32 floor) it is within 1e-4.
     let mut p = params();
     p.solver.tol = 1e-8;
     let out = blend_two(&a, &shifted, &m, &p).unwrap();
@@ -462,7 +462,7 @@ fn item11_solvers_agree_with_reference() {
             assert!(out.reports[0].converged && out.reports[0].iterations <= 30, "{:?}", out.reports[0]);
             // Tolerance tuned: a relative residual of 1e-6 bounds the error only to about
             // 1e-6 of the values (measured 3.3e-4 for MGPCG on the 64² fixture, 9.4e-4 for
-            // V-cycles on 32²), above the digest's 1e-4 agreement. Agreement is therefore
+            // V-cycles on 32²), above the check's 1e-4 agreement. Agreement is therefore
             // checked at 1e-8, where f32 rounding is the limit (≤ 8e-5 measured).
             p.solver.tol = 1e-8;
             let out = blend_two(&a, &b, &m, &p).unwrap();

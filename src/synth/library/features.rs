@@ -13,7 +13,7 @@ use crate::synth::fft::fft_real;
 pub struct FeatureParams {
     /// Histogram bins per RGB axis (32 in the thesis: 32³ = 32,768 bins).
     pub bins: usize,
-    /// Side of the square power-of-two analysis image for the DFT (digest §7: 128).
+    /// Side of the square power-of-two analysis image for the DFT (128, [references: welsman-dinelle §4.3]).
     pub size: usize,
     /// Box-resample every image to `size × size` (else only square power-of-two images are
     /// accepted, analysed at their own size).
@@ -235,7 +235,7 @@ pub enum DftPart {
     Im,
 }
 
-/// The thesis's DFT display (§2.5): the real or imaginary part, centred (DC at
+/// The thesis's DFT display ([references: welsman-dinelle §4.3.2]): the real or imaginary part, centred (DC at
 /// `(n/2, n/2)`), log-scaled: `pixel = log(1 + |v|) / max log(1 + |v|)` with `v` on the 8-bit
 /// scale (`255 · F`, F normalised by 1/n² as in Eq. 4.3). A 1-channel `n × n` image in
 /// `[0, 1]`; all zero when the part is zero everywhere.

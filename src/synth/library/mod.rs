@@ -1,4 +1,4 @@
-//! Texture library features and ranking (digest 003 §2.3–2.5, Welsman-Dinelle 2007).
+//! Texture library features and ranking ([references: welsman-dinelle §4.1, §4.3]).
 //!
 //! Per sample, [`features`] computes once (callers cache the serialisable [`Features`] per
 //! file):
@@ -15,7 +15,7 @@
 //! entry (Eq. 4.2 colour L1; Eq. 4.4 Fourier L1 in one of four [`FourierMode`]s), rescales
 //! each axis by the largest distance of this query ("per query max", faithful) or by a
 //! library-independent bound (`Fixed`), and combines them as `sqrt(Σ d̂²)` (Eq. 4.5).
-//! [`select`] draws the candidate set (§2.4): randomness ρ = 0 gives the k nearest in order,
+//! [`select`] draws candidates ([references: welsman-dinelle §4.1]): randomness ρ = 0 gives the k nearest in order,
 //! ρ = 1 uniform sampling, in between weights `exp(−d̂/τ)` with `τ = ρ/(1−ρ)`, drawn
 //! without replacement by inverse CDF from a seeded generator. [`range_query`] is the
 //! thesis's first-version query.

@@ -214,7 +214,7 @@ pub fn rank(library: &[Features], query: &Features, params: &QueryParams) -> Res
     Ok(out)
 }
 
-/// Draws up to `k` entries from a ranking without replacement (§2.4): randomness `ρ = 0`
+/// Draws up to `k` entries from a ranking without replacement ([references: welsman-dinelle §4.1]): `ρ = 0`
 /// takes the nearest in order, `ρ = 1` draws uniformly, and in between each draw picks by
 /// inverse CDF over weights `exp(−(d̂ − d̂_min)/τ)`, `τ = ρ/(1−ρ)`, of the entries left.
 /// Deterministic for a given `seed`. Returns the entries in draw order.

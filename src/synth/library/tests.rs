@@ -1,4 +1,4 @@
-//! Digest 003 §5 checklist, classification (items 18–28) and item 31.
+//! Checks of [references: welsman-dinelle §4.3]: classification (items 18–28) and item 31.
 
 use super::*;
 use crate::raster::Image;
@@ -146,7 +146,7 @@ fn item21_fourier_distance() {
     assert!(fourier_distance(&fa, &fs, FourierMode::ReIm).unwrap() > 0.0);
     let total: f64 = fa.spectrum.iter().map(|c| (c[0] as f64).hypot(c[1] as f64)).sum();
     // f32 storage of the spectrum: the magnitudes of a shifted image agree to f32 rounding,
-    // i.e. ~1e-7 relative; the digest's 1e-9·Σ|F| bound is met in f64 (checked on `dft`).
+    // i.e. ~1e-7 relative; item 20's 1e-9·Σ|F| bound is met in f64 (checked on `dft`).
     assert!(fourier_distance(&fa, &fs, FourierMode::Magnitude).unwrap() <= 1e-6 * total);
     let ga = features::grey(&a, p.luma);
     let gs = features::grey(&roll(&a, 13, 7), p.luma);
@@ -237,7 +237,7 @@ fn item23_self_retrieval() {
     assert!(radial[2].distance < 1e-5 && radial[3].distance > 1e-2);
 }
 
-/// Five synthetic families × 8 members (digest item 24). Palettes are shared in pairs
+/// Five synthetic families × 8 members (Welsman-Dinelle item 24). Palettes are shared in pairs
 /// (stripes/checkers, stars/blobs) so colour alone confuses them, and the noise family shares
 /// its spectrum shape with nothing.
 fn family(kind: usize, member: u64) -> Image {

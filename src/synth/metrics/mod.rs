@@ -1,5 +1,5 @@
 //! Texture measures shared by tests, matching, library search and `tessera compare A B`
-//! (DESIGN.md, "Quality is measured"; digest 000 §4 metrics 1 and 2, with the §9 proposals).
+//! (the two metrics of [references: bourque §4.5], with tessera's choices).
 //!
 //! Every function is a *distance*: 0 for identical inputs, larger for less similar ones.
 //! Images are compared as given (no colour-space conversion); the grey-level measures use

@@ -1,5 +1,5 @@
-//! Laplacian-pyramid histogram distance (digest 000 metric 2, eq. 4.11, with the §9
-//! proposal).
+//! Laplacian-pyramid histogram distance ([references: bourque §4.5], Eq. 4.11, with
+//! tessera's choices).
 //!
 //! Box pyramid as the thesis describes it: each coarser level averages 2 × 2 blocks (a
 //! last odd row or column averages what exists), down to 1 × 1; the Laplacian level is

@@ -1,7 +1,7 @@
-//! Radially averaged power spectrum distance (digest 000 metric 1, eq. 4.10, reshaped).
+//! Radially averaged power spectrum distance ([references: bourque §4.5], Eq. 4.10, reshaped).
 //!
 //! Bourque compares raw power spectra "weighted radially to favour low frequency"; the
-//! digest's §9 proposal normalises and windows them. Comparing textures of *different*
+//! choice in [references: bourque §4.5] normalises and windows them. Comparing textures of *different*
 //! sizes (output vs sample) needs a size-free representation, so the spectrum is reduced
 //! to its radial profile over normalised frequency (cycles per pixel), and profiles are
 //! compared in log power:
@@ -12,7 +12,7 @@
 //! 3. radial profile: mean of `P` over `bins` rings of `ρ = |k / size| ∈ (0, 0.5]` (DC and the
 //!    corners beyond 0.5 are left out);
 //! 4. `D = sqrt( Σ w_i (ln(P_a,i + ε) − ln(P_b,i + ε))² / Σ w_i )` over rings populated in
-//!    both images, with `w_i = 1 / (1 + ρ_i / ρ₀)` (the digest's `1/(1 + r/r₀)` with
+//!    both images, with `w_i = 1 / (1 + ρ_i / ρ₀)` (the weight `1/(1 + r/r₀)` of that choice, with
 //!    `r₀ = N/16`, i.e. `ρ₀ = 1/16`).
 //!
 //! D is in natural-log units: 0.1 means powers differ by about 10 % on average. The

@@ -1,5 +1,5 @@
 //! Metric sanity: identity, monotonicity under noise, crop vs shuffle, invariances
-//! (digest 000 F6/F8 where they apply to these forms) and thread-count determinism.
+//! (Bourque F6/F8 of [references: bourque §4.5] where they apply to these forms) and thread-count determinism.
 
 use super::*;
 use crate::synth::rng::Rng;

@@ -1,4 +1,4 @@
-//! Minimum-error boundary cut (Efros & Freeman 2001; Dong digest §2.10a) by dynamic programming.
+//! Minimum-error boundary cut by dynamic programming ([references: efros-freeman]; [references: dong §5.3.2]).
 
 /// Minimum-cost top-to-bottom path through a `width × height` error strip (row-major): one column per
 /// row, consecutive rows' columns differ by at most 1 (8-connected, monotone in y).
@@ -64,7 +64,7 @@ pub(super) type Sides = [usize; 4];
 
 /// Which pixels of a `bw × bh` block come from the new block: per side with an overlap, a cut through
 /// that strip's error; pixels on the old side of any cut keep the existing result (the intersection of
-/// the "new" regions, digest §2.10a for the L-shaped case). The path pixel itself is new.
+/// the "new" regions, [references: efros-freeman] for the L-shaped case). The path pixel itself is new.
 /// `err(x, y)` is the per-pixel error inside the block.
 pub(super) fn new_region(bw: usize, bh: usize, sides: Sides, err: impl Fn(usize, usize) -> f64) -> Vec<bool> {
     let mut new = vec![true; bw * bh];

@@ -17,7 +17,7 @@
 //! - **Layout controls**: tileable (torus) output, an occupancy mask, an orientation field (pre-rotated
 //!   sample copies), and a density map mixing two samples.
 //! - **Seam removal** ([`remove_seams`]): a band-Dirichlet Poisson solve around block boundaries
-//!   with each block's own source gradients (digest 003 §6.3 (i)); block interiors stay bit-exact.
+//!   with each block's own source gradients ([references: welsman-dinelle §4.2]); block interiors stay bit-exact.
 //! - **Baseline**: Dong's pixel-based multiresolution method ([`pixel_synthesis`], Sec. 5.3.1), for the
 //!   Table 5.3.3 comparison only.
 //!

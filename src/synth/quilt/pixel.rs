@@ -22,7 +22,7 @@ use crate::synth::rng::Rng;
 pub struct PixelParams {
     pub width: usize,
     pub height: usize,
-    /// Side of the square causal window (odd, ≥ 3); Dong gives none, 5 is the digest's proposal.
+    /// Side of the square causal window (odd, ≥ 3); Dong gives none, 5 is tessera's ([references: dong §5.3.1]).
     pub neighbourhood: usize,
     /// Pyramid levels above the finest; `None` = `floor(log2(min(sample side) / 8))`.
     pub levels: Option<usize>,

@@ -1,4 +1,4 @@
-//! Gradient-domain seam removal after quilting: the band-Dirichlet variant (i) of digest 003 §6.3.
+//! Gradient-domain seam removal after quilting: the band variant of [references: welsman-dinelle §4.2].
 //!
 //! The label map is the quilt's block map (every pixel belongs to the block that wrote it). The
 //! guidance on an edge ⟨p,q⟩ inside one block is `S_ℓ(p) − S_ℓ(q)`, `S_ℓ` being block ℓ's source
@@ -18,7 +18,7 @@
 //! do, a block whose parity class is taken by an earlier block it meets gets the first extra class
 //! free of them, so any overlap works. Class image k holds, at every pixel in the reach of a
 //! class-k block, that block's source value: the source copy (rotated exactly like the engine
-//! rotated it) at the block's offset, so the guidance is exactly the digest's. A continuation that
+//! rotated it) at the block's offset, so the guidance is exactly the one cited above. A continuation that
 //! leaves the source (or a rotated copy's valid area) takes the value of the block's pixel next to
 //! it, i.e. that block contributes a zero difference on that edge. Pixels outside every class-k
 //! reach are never read; they hold the quilt image, so the values' range (which scales the
@@ -39,7 +39,7 @@ use crate::synth::blend::{blend, BlendParams, Domain, Mode, Seam, Selector, Solv
 /// Settings of [`remove_seams`].
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SeamParams {
-    /// Pixels within this Chebyshev distance of a block boundary are solved (digest: 4–16).
+    /// Pixels within this Chebyshev distance of a block boundary are solved (typically 4–16).
     pub radius: usize,
     /// Guidance across a block boundary. [`Seam::Average`] is symmetric and recommended; with
     /// [`Seam::Insert`] the block of the higher class wins, which has no meaning of its own here.

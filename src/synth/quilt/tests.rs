@@ -350,7 +350,7 @@ fn relighting_commutes_with_quilting() {
 
 #[test]
 fn r6_costs_about_twice_r3() {
-    // Benchmark-style check (loose, as the digest says): min-of-N single-threaded timings, R^3 and
+    // Benchmark-style check (loose, as Dong item 23 says): min-of-N single-threaded timings, R^3 and
     // R^6 interleaved so that load from other tests affects both alike; retried when disturbed.
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     let s3 = noise_texture(64, 3, 8, 20);

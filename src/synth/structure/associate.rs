@@ -1,4 +1,4 @@
-//! Closest-shape association (digest 004 §2.9, Algorithm 2, V13).
+//! Closest-shape association ([references: frasson §3.5.4], Algorithm 2, V13).
 //!
 //! For each generated region, the original region with the smallest turning distance among
 //! those whose area is within `±area_tol` of the generated region's area is chosen. If none

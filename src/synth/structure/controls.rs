@@ -1,4 +1,4 @@
-//! Constraint maps (digest 004 §2.11): density, occupancy, size, orientation and metric maps.
+//! Constraint maps ([references: frasson §3.7.2]): density, occupancy, size, orientation and metric maps.
 //!
 //! Maps arrive as plain data at the target raster size (`width × height`, row-major):
 //!
@@ -12,7 +12,7 @@
 //!   ([`super::polygonize::Polygonization::on_occupancy_border`]) so stage 2 can fix them.
 //! * **size** (`&[f32]`, luminance), in one of two [`SizeMode`]s, read at the ellipse centre
 //!   and multiplied into `(a, b)` ([`size_factor`]): `scale`, `k = k_min + (1 − k_min)·L`
-//!   (the digest's proposal), or `fixed`, the thesis's other mode: inside the marked area
+//!   (tessera's choice), or `fixed`, the thesis's other mode: inside the marked area
 //!   (`L < 0.5`) every ellipse gets one mean radius `√(ab)`, keeping its aspect ratio. The
 //!   expected number of regions per pixel follows ([`area_weight`]).
 //! * **orientation** (2-channel [`Image`] of unit vectors `(cos φ, sin φ)`): at every Lloyd
@@ -27,7 +27,7 @@ use super::types::{Ellipse, Point};
 use super::voronoi::pixel_coord;
 use crate::raster::Image;
 
-/// The density → weight mapping of §2.8.
+/// The density → weight mapping of [references: frasson §3.5.4].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DensityParams {
     /// Weight floor `ε` (a white pixel still weighs `ε`).
@@ -47,14 +47,14 @@ impl Default for DensityParams {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RemoveMode {
-    /// The ellipse's centre lies in a forbidden pixel (default; §2.11 proposal).
+    /// The ellipse's centre lies in a forbidden pixel (default; tessera's choice, [references: frasson §3.7.2]).
     #[default]
     Center,
     /// Any pixel centre inside the ellipse is forbidden.
     AnyOverlap,
 }
 
-/// How the size map sizes the ellipses (§2.11).
+/// How the size map sizes the ellipses ([references: frasson §3.7.2]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SizeMode {

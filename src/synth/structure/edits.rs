@@ -1,4 +1,4 @@
-//! Structure manipulations (digest 004 §2.10): insert, delete, freeze, move and resize/rotate
+//! Structure manipulations ([references: frasson §3.7.1]): insert, delete, freeze, move and resize/rotate
 //! generators, then re-run Lloyd from the current state (frozen generators do not move).
 //!
 //! * `Insert`: the new generator gets the next id (`len`). Its centre must be allowed.

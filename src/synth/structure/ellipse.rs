@@ -1,4 +1,4 @@
-//! Ellipse fit by principal component analysis (digest 004 §2.3, V2).
+//! Ellipse fit by principal component analysis ([references: frasson §3.4], V2).
 //!
 //! The covariance is normalised (`Σ = (1/Σw) Σ w_i p'_i p'_iᵀ`) and mapped to semi-axes by
 //! `a = 2√λ1`, `b = 2√λ2`: a filled ellipse with semi-axes `a, b` has variance `a²/4` along
@@ -95,7 +95,7 @@ pub fn ellipse_from_cov(centroid: Point, cov: [f64; 3]) -> Option<Ellipse> {
 }
 
 /// `λ1 / λ2` of a covariance (∞ when degenerate). Below 1.02 the angle is unstable
-/// (digest §2.3); orientation tests skip such regions.
+/// ([references: frasson §3.4]); orientation tests skip such regions.
 pub fn anisotropy(cov: [f64; 3]) -> f64 {
     let (l1, l2, _) = eigen(cov);
     if l2 > 0.0 {

@@ -1,4 +1,4 @@
-//! Rebuilding regions from edges (digest 004 §2.2, Algorithm 1, [PROPOSAL] DCEL variant).
+//! Rebuilding regions from edges ([references: frasson §3.4], Algorithm 1, tessera's DCEL variant).
 //!
 //! The thesis sweeps a line over the vertices; we build a half-edge structure instead:
 //! outgoing half-edges are sorted by angle around each vertex, `next(h)` is the outgoing
@@ -7,7 +7,7 @@
 //!
 //! Orientation: all signed areas use the raw `(x, y)` coordinates (y down), with
 //! `A = ½ Σ (x_i y_{i+1} − x_{i+1} y_i)`. Region boundaries have `A > 0` (this is
-//! counter-clockwise in a y-up frame, as in digest §1.2, and the orientation [`Mesh`]
+//! counter-clockwise in a y-up frame, as in [references: frasson §3.4], and the orientation [`Mesh`]
 //! documents as "positive signed area with y down"; drawn on a y-down screen it appears
 //! clockwise). Each region lies to the *left* of its boundary half-edges in that y-up sense.
 //!
@@ -18,7 +18,7 @@
 //! Components: every connected component has one cycle with negative area, its outside.
 //! If that cycle lies inside a region of another component, it is a hole of that region
 //! (an island); otherwise it is part of the unbounded face. With `C` components, the Euler
-//! relation reads `N_R + N_V = N_E + C` (`C = 1`: the digest's `N_R + N_V = N_E + 1`).
+//! relation reads `N_R + N_V = N_E + C` (`C = 1`: the thesis's `N_R + N_V = N_E + 1`, [references: frasson §B.1.2]).
 //!
 //! The input must be valid (see [`super::validate`]); dangling edges are tolerated (both
 //! sides get the same face and the boundary walks around them) but should be pruned first
@@ -40,7 +40,7 @@ pub struct Region {
     pub holes: Vec<Vec<usize>>,
     /// Area of the boundary minus the holes.
     pub area: f64,
-    /// The region shares an edge with the unbounded face (a "border region", digest §2.2).
+    /// The region shares an edge with the unbounded face (a "border region", [references: frasson §3.4]).
     pub touches_outer: bool,
     /// A boundary vertex lies on or outside the sample rectangle (only with a sample size).
     pub touches_sample_border: bool,

@@ -1,4 +1,4 @@
-//! The structure file format (digest 004 §2.1) and the errors a structure can have.
+//! The structure file format ([references: frasson §3.1]) and the errors a structure can have.
 //!
 //! A structure is a JSON object in pixel units with `y` pointing down:
 //!

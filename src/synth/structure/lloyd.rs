@@ -1,5 +1,5 @@
-//! Anisotropic discrete Lloyd relaxation (digest 004 §2.7) with the constraint-map hooks of
-//! §2.11.
+//! Anisotropic discrete Lloyd relaxation ([references: frasson §3.5.2]) with the constraint-map hooks of
+//! [references: frasson §3.7.2].
 //!
 //! Each iteration: (i) discrete anisotropic Voronoi of the generators (growth by default,
 //! [`super::voronoi`]); (ii) per region, the density-weighted centroid of its pixels; the

@@ -1,5 +1,5 @@
-//! The elliptic (anisotropic) metric of digest 004 §2.6 and its Manhattan / Chebyshev
-//! variants (§2.11, "metric map").
+//! The elliptic (anisotropic) metric of [references: frasson §3.5.1] and its Manhattan / Chebyshev
+//! variants ([references: frasson §3.7.2], "metric map").
 //!
 //! For an ellipse with centre `c`, semi-axes `a ≥ b` and major-axis angle `θ` (from +x towards
 //! +y, y down), let `(u, v) = R(−θ)(p − c)`. Then
@@ -115,7 +115,7 @@ pub fn polar_radius(a: f64, b: f64, alpha: f64) -> f64 {
     (b * b / (1.0 - e2 * c * c)).sqrt()
 }
 
-/// The thesis's form `‖p − c‖ / r(α)` of the elliptic distance (with the §2.6 correction: `α`
+/// The thesis's form `‖p − c‖ / r(α)` of the elliptic distance (corrected, [references: frasson §3.5.1]: `α`
 /// is measured from the ellipse's major axis). Slower than [`elliptic_distance`]; kept as a
 /// reference for tests.
 pub fn polar_distance(e: &Ellipse, p: Point) -> f64 {

@@ -1,4 +1,4 @@
-//! Structure from example (Frasson ch. 3; digest 004 §2): analysis of a drawn subdivision,
+//! Structure from example ([references: frasson §3]): analysis of a drawn subdivision,
 //! anisotropic Lloyd synthesis steered by control maps, polygonisation, shape optimisation.
 pub mod associate;
 pub mod controls;

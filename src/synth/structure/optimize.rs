@@ -1,5 +1,5 @@
 //! Stage 2 of the statistical structure synthesis: correcting region shapes
-//! ("micro-positioning", digest 004 §2.9, Algorithms 2 and 3, V13–V15).
+//! ("micro-positioning", [references: frasson §3.5.4], Algorithms 2 and 3, V13–V15).
 //!
 //! **Association (Algorithm 2).** Every eligible region is associated with its closest
 //! original shape ([`associate`]: smallest turning distance among the originals within
@@ -83,7 +83,7 @@ use super::validate::{point_segment_distance, segment_contact};
 use rayon::prelude::*;
 use std::collections::HashSet;
 
-/// Options of [`optimize_shapes`] (`shapes.*`, `polygonize.min_edge`; digest §2.9 [PROPOSAL]).
+/// Options of [`optimize_shapes`] (`shapes.*`, `polygonize.min_edge`; [references: frasson §3.5.4]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShapeParams {
     /// Fraction of the mean target vector applied per iteration (`shapes.step`, 0.2).
@@ -644,7 +644,7 @@ impl<'a> State<'a> {
     }
 }
 
-/// Stage-2 shape optimisation (digest §2.9) of a valid mesh tiling (part of) the domain
+/// Stage-2 shape optimisation ([references: frasson §3.5.4]) of a valid mesh tiling (part of) the domain
 /// `[0, width] × [0, height]`. `fixed[v]`: the vertex never moves; `border[v]`: the vertex is
 /// on the domain border and may only slide along it. `originals` are the sample's region
 /// polygons, already scaled by the structure's scale.
@@ -1238,7 +1238,7 @@ mod tests_support {
     use crate::synth::structure::types::NO_REGION;
 
     /// Labels every pixel with the ellipse of smallest elliptic distance
-    /// `√((u/a)² + (v/b)²)` (digest §2.6) among the ellipses fitted to the ground truth.
+    /// `√((u/a)² + (v/b)²)` ([references: frasson §3.5.1]) among the ellipses fitted to the ground truth.
     pub fn elliptic_voronoi(s: &StandIn) -> Vec<u32> {
         let (w, h) = (s.width, s.height);
         let ells: Vec<_> = s.polygons().iter().filter_map(|p| fit_polygon(p)).collect();

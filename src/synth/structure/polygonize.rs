@@ -1,4 +1,4 @@
-//! Watertight polygonisation of a label raster (digest 004 §2.8, "Stage 1 → mesh"; F13).
+//! Watertight polygonisation of a label raster ([references: frasson §3.5.4], "label image → mesh"; F13).
 //!
 //! 1. **Cleanup.** Each label is reduced to one 4-connected component: smaller components are
 //!    given to the neighbouring label sharing the most pixel edges with them (`NO_REGION` if

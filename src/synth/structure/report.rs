@@ -1,5 +1,5 @@
-//! Statistics report: how close a synthesised structure is to its sample (digest 004 §2.4,
-//! §9, V29). The thesis mentions "some evaluation metrics" without defining them; these are
+//! Statistics report: how close a synthesised structure is to its sample (V29 of
+//! [references: frasson §3.6]). The thesis mentions "some evaluation metrics" without defining them; these are
 //! ours.
 //!
 //! [`compare`] takes the two [`StatModel`]s and reports
@@ -16,7 +16,7 @@
 //! Sources: the region variables (`a/b`, relative area, `θ`, edges per region) are computed
 //! exactly from the per-region records of the models, over the regions each model uses for
 //! its statistics (border regions skipped when its `exclude_border_regions` is set). `θ`
-//! skips near-isotropic regions (`λ1/λ2 < 1.02`, i.e. `(a/b)² < 1.02`, digest §2.3), whose
+//! skips near-isotropic regions (`λ1/λ2 < 1.02`, i.e. `(a/b)² < 1.02`, [references: frasson §3.4]), whose
 //! angle is unstable. The models keep only histograms of the edge lengths, interior angles,
 //! vertex angles and valencies, so those distances compare the histograms' piecewise-linear
 //! CDFs (uniform inside each bin, as sampling assumes); their supremum is reached at a bin

@@ -1,5 +1,5 @@
 //! A structure sample, analysed: what the synthesis stages need from a drawn subdivision
-//! (digest 004 §2.1–2.4), as one plain value that can be cached.
+//! ([references: frasson §3.1, §3.4]), as one plain value that can be cached.
 
 use serde::{Deserialize, Serialize};
 

@@ -1,4 +1,4 @@
-//! Seeded synthetic stand-ins for the thesis's structure samples (digest 004 §8), with their
+//! Seeded synthetic stand-ins for the thesis's structure samples ([references: frasson §3.6]), with their
 //! ground truth: the exact polygon mesh, its subdivision, and per-region classes.
 //!
 //! | generator | thesis example | construction |

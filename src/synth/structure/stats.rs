@@ -1,4 +1,4 @@
-//! Statistics of a structure sample (digest 004 §2.4): the inventory, histograms with the
+//! Statistics of a structure sample ([references: frasson §3.4]): the inventory, histograms with the
 //! `W = 2·IQR·N^(-1/3)` bin-width rule, and seeded inverse-transform sampling.
 //!
 //! Inventory ([`StatModel`]):
@@ -11,9 +11,9 @@
 //! border regions when `exclude_border_regions` is set (the default, V30): they are cut off
 //! by the sample border, so their shapes are not representative.
 //!
-//! Histogram rules ([PROPOSAL] §2.4): range `[min, max]` of the data; bins of width `W` from
-//! `min`, the last bin ending at `max` (so `max` falls in the last bin, as the digest's
-//! `W·1e-9` padding intends, without letting samples exceed `max`). If `IQR = 0` or `N < 4`:
+//! Histogram rules ([references: frasson §3.4]): range `[min, max]` of the data; bins of width `W` from
+//! `min`, the last bin ending at `max` (so `max` falls in the last bin, as the
+//! `W·1e-9` padding of the choice intends, without letting samples exceed `max`). If `IQR = 0` or `N < 4`:
 //! width 1 for integer variables, Sturges' `k = ceil(log2 N) + 1` bins otherwise. Integer
 //! variables use half-integer bin edges (`[min − ½, max + ½]`) and integer bin widths
 //! (`max(1, round(W))`), and samples are rounded, so sampling returns integers in
@@ -494,7 +494,7 @@ pub struct Counts {
     pub components: usize,
 }
 
-/// The statistics of a structure sample (digest §2.4).
+/// The statistics of a structure sample ([references: frasson §3.4]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StatModel {
     pub config: StatsConfig,
@@ -680,7 +680,7 @@ pub struct Analysis {
     pub model: StatModel,
 }
 
-/// The whole analysis (digest §2.2–2.4): validate and clean, extract faces (border regions
+/// The whole analysis ([references: frasson §3.4]): validate and clean, extract faces (border regions
 /// flagged against `sample_size` if given), fit ellipses and collect statistics.
 pub fn analyse(
     sub: &Subdivision,

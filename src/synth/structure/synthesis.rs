@@ -1,4 +1,4 @@
-//! Generator synthesis (digest 004 §2.8): trivial synthesis (perturb / swap the original
+//! Generator synthesis ([references: frasson §3.5.3, §3.5.4]): trivial synthesis (perturb / swap the original
 //! ellipses) and statistical synthesis stage 1 (sample `N'` ellipses, then relax them with
 //! [`super::lloyd::lloyd`]).
 //!
@@ -11,7 +11,7 @@
 //!   needed; without this, Lloyd would only shuffle the same count of regions around).
 //! * shapes `(a, b, θ)` come from a [`ShapeSampler`]: any closure
 //!   `FnMut(&mut Rng) -> (a, b, θ)` (e.g. the analysis histograms), [`Independent`] axes and
-//!   angle samplers (the thesis's default, §2.4), or the [`EmpiricalSampler`] over example
+//!   angle samplers (the thesis's default, [references: frasson §3.4]), or the [`EmpiricalSampler`] over example
 //!   ellipses (independent or joint bootstrap). Axes are multiplied by `s`.
 //! * centres: [`CenterSource::Uniform`] over allowed pixels, [`CenterSource::Density`]
 //!   proportional to the density-map weight (uniform without a map; the default), or
@@ -63,10 +63,10 @@ impl<A: FnMut(&mut Rng) -> (f64, f64), T: FnMut(&mut Rng) -> f64> ShapeSampler f
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ShapeSampling {
-    /// `(a, b)` of one random example, `θ` of another (thesis, §2.4).
+    /// `(a, b)` of one random example, `θ` of another (thesis, [references: frasson §3.4]).
     #[default]
     Independent,
-    /// A whole `(a, b, θ)` triple of one example (bootstrap, §2.8 proposal).
+    /// A whole `(a, b, θ)` triple of one example (bootstrap, tessera's choice, [references: frasson §3.5.4]).
     Joint,
 }
 

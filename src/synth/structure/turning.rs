@@ -1,4 +1,4 @@
-//! Turning-function shape distance (Arkin et al. 1991; digest 004 §2.9, V12).
+//! Turning-function shape distance ([references: arkin]; [references: frasson §3.5.4], V12).
 //!
 //! `Θ(s)` maps normalised arc length `s ∈ [0, 1)` (perimeter scaled to 1) to the tangent
 //! angle; it steps by the turning angle at each vertex (left turns in the y-up sense

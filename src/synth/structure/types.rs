@@ -1,4 +1,4 @@
-//! Plain data shared by structure analysis and synthesis (digest 004 §1).
+//! Plain data shared by structure analysis and synthesis ([references: frasson §3.4]).
 //!
 //! Conventions: pixel units, `f64` geometry, y pointing down, pixel `(i, j)` has its centre
 //! at `(i + 0.5, j + 0.5)`. Angles are radians measured from +x towards +y (the same
@@ -51,7 +51,7 @@ impl Labels {
 pub struct Mesh {
     pub vertices: Vec<Point>,
     /// Each region's boundary as a cycle of vertex indices with positive shoelace area on
-    /// the raw coordinates: counter-clockwise in a y-up frame (digest 004 §1.2), which looks
+    /// the raw coordinates: counter-clockwise in a y-up frame ([references: frasson §3.4]), which looks
     /// clockwise on screen because y points down.
     pub regions: Vec<Vec<usize>>,
 }

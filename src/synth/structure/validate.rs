@@ -1,4 +1,4 @@
-//! Validation and cleanup of a structure (digest 004 §2.2, [PROPOSAL] items).
+//! Validation and cleanup of a structure ([references: frasson §3.4], tessera's choices).
 //!
 //! [`validate`] reports the first problem in a fixed order (empty input, edge indices,
 //! self-loops, duplicate vertices, crossing edges, nothing left after pruning), with the

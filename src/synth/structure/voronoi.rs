@@ -1,4 +1,4 @@
-//! Discrete (anisotropic) Voronoi diagrams on a pixel raster (digest 004 §2.5).
+//! Discrete (anisotropic) Voronoi diagrams on a pixel raster ([references: frasson §3.2.1]).
 //!
 //! Two modes:
 //!
@@ -56,7 +56,7 @@ use super::types::{Ellipse, Labels, Point, NO_REGION};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Site {
-    /// An ellipse carrying its own metric (§2.6; kind from the params or the metric map).
+    /// An ellipse carrying its own metric ([references: frasson §3.5.1]; kind from the params or the metric map).
     Ellipse(Ellipse),
     /// A line segment with the Euclidean point-to-segment distance (Fig. 3.5). Metric kinds do
     /// not apply to segments.
@@ -79,9 +79,9 @@ pub enum VoronoiMode {
 pub struct Domain<'a> {
     pub width: usize,
     pub height: usize,
-    /// `false` = forbidden pixel (occupancy map, §2.11 op. 2–3). `None`: all allowed.
+    /// `false` = forbidden pixel (occupancy map, [references: frasson §3.7.2], operations 2–3). `None`: all allowed.
     pub allowed: Option<&'a [bool]>,
-    /// Per-pixel metric kind (§2.11 metric map); the kind at the *pixel* being evaluated is
+    /// Per-pixel metric kind ([references: frasson §3.7.2] metric map); the kind at the *pixel* being evaluated is
     /// used. `None`: [`VoronoiParams::metric`] everywhere.
     pub metric_map: Option<&'a [MetricKind]>,
 }
