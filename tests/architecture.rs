@@ -641,7 +641,6 @@ fn kinds_do_not_use_the_commands() {
 }
 
 #[test]
-#[ignore = "holds once main.rs only parses arguments (issue 11, the main.rs refactor): main.rs still names tessera::synth"]
 fn main_uses_nothing_of_synth() {
     let t = tree();
     assert_none("main.rs imports synth", &layer_violations(&t, "src/main.rs", &|m| m != "synth"));
@@ -810,8 +809,6 @@ fn kind_name_matches(tree: &Tree) -> Vec<String> {
 }
 
 #[test]
-#[ignore = "45 kind names matched outside their module today (a registry match, output's views, \
-            reference lists, lang's `scene`); issue 11 removes them (run with --ignored to list them)"]
 fn no_kind_name_is_matched_outside_its_module() {
     assert_none("kind names matched outside their module", &kind_name_matches(&tree()));
 }
