@@ -58,6 +58,19 @@ pub struct FnStage<T: Encoded> {
 }
 
 impl<T: Encoded> FnStage<T> {
+    /// A stage whose key is the canonical serialisation of exactly the value its work
+    /// receives: `run` is a plain function (a closure capturing nothing), so nothing can reach
+    /// it that the key does not hold, and there is no second list of parameters to drift.
+    pub fn keyed<P>(kind: &'static str, version: u32, input: P, run: fn(&RunCx, &P) -> Result<T, StageError>) -> Self
+    where
+        P: serde::Serialize + Send + Sync + 'static,
+    {
+        let params = serde_json::to_string(&input).expect("stage parameters serialise");
+        FnStage { kind, version, params, run: Box::new(move |cx| run(cx, &input)) }
+    }
+
+    /// A stage keyed by `params`, which must describe everything `run` captures. Prefer
+    /// [`FnStage::keyed`], which makes that so by construction.
     pub fn new(
         kind: &'static str,
         version: u32,

@@ -1,7 +1,7 @@
 //! `surface`: the target a layer is synthesised on.
 
 use super::{FnStage, Planner};
-use crate::graph::{NodeId, StageError};
+use crate::graph::{NodeId, RunCx, StageError};
 use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Value};
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::Image;
@@ -34,28 +34,34 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     if let Some(m) = d.props.reference("occupancy") {
         inputs.push(p.result(m));
     }
-    let params = d.props.canonical();
-    let stage = FnStage::new("surface.plane", 1, params, move |cx| {
-        if cx.input_count() == 0 {
-            return Ok(Plane::full(w, h));
-        }
-        let occ = cx.input::<Image>(0);
-        if occ.width != w || occ.height != h {
-            return Err(StageError::new(format!(
-                "the occupancy map is {}x{} but the plane is {w}x{h}",
-                occ.width, occ.height
-            ))
-            .at_prop("occupancy")
-            .with_help("give the map `size` the plane's size"));
-        }
-        if occ.channels != 1 {
-            return Err(
-                StageError::new("the occupancy map must be scalar, not an orientation field").at_prop("occupancy")
-            );
-        }
-        Ok(Plane { occupancy: (*occ).clone() })
-    });
+    let stage = FnStage::keyed("surface.plane", 2, PlaneSize { w, h }, plane);
     Ok(p.add(format!("surface {}", d.name), stage, inputs, Vec::new()))
+}
+
+/// What the plane stage works from besides its occupancy map (if any).
+#[derive(serde::Serialize)]
+struct PlaneSize {
+    w: usize,
+    h: usize,
+}
+
+fn plane(cx: &RunCx, &PlaneSize { w, h }: &PlaneSize) -> Result<Plane, StageError> {
+    if cx.input_count() == 0 {
+        return Ok(Plane::full(w, h));
+    }
+    let occ = cx.input::<Image>(0);
+    if occ.width != w || occ.height != h {
+        return Err(StageError::new(format!(
+            "the occupancy map is {}x{} but the plane is {w}x{h}",
+            occ.width, occ.height
+        ))
+        .at_prop("occupancy")
+        .with_help("give the map `size` the plane's size"));
+    }
+    if occ.channels != 1 {
+        return Err(StageError::new("the occupancy map must be scalar, not an orientation field").at_prop("occupancy"));
+    }
+    Ok(Plane { occupancy: (*occ).clone() })
 }
 
 /// The surface kind: a target plane and its occupancy.

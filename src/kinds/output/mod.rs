@@ -89,6 +89,29 @@ pub struct PlannedOutput {
     pub span: Span,
 }
 
+/// What an encode stage works from besides its input.
+#[derive(serde::Serialize)]
+struct Encoding {
+    format: OutputFormat,
+    view: View,
+}
+
+fn encode(cx: &crate::graph::RunCx, &Encoding { format, view }: &Encoding) -> Result<Bytes, StageError> {
+    let img: Image = match view {
+        View::Plane => cx.input::<Plane>(0).occupancy.clone(),
+        View::Image { space } => to_file_space(&cx.input::<Image>(0), space, format),
+        View::Data => {
+            let img = cx.input::<Image>(0);
+            if img.channels == 2 && format != OutputFormat::Exr {
+                vector_view(&img)
+            } else {
+                (*img).clone()
+            }
+        }
+    };
+    encode_image(&img, format)
+}
+
 /// How the source's pixels become file pixels.
 #[derive(Clone, Copy, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -154,25 +177,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         (None, None) => View::Data,
     };
     let input = p.value(from, d.props.span("from").unwrap_or(d.name_span))?;
-    let params = serde_json::json!({ "format": format, "view": view }).to_string();
-    let stage = FnStage::new("output.encode", 2, params, move |cx| {
-        let img: Image = match view {
-            View::Plane => cx.input::<Plane>(0).occupancy.clone(),
-            View::Image { space } => {
-                let img = cx.input::<Image>(0);
-                to_file_space(&img, space, format)
-            }
-            View::Data => {
-                let img = cx.input::<Image>(0);
-                if img.channels == 2 && format != OutputFormat::Exr {
-                    vector_view(&img)
-                } else {
-                    (*img).clone()
-                }
-            }
-        };
-        encode_image(&img, format)
-    });
+    let stage = FnStage::keyed("output.encode", 2, Encoding { format, view }, encode);
     let node = p.add(format!("output {}", d.name), stage, vec![input], vec![]);
     p.outputs.push(planned(d, &name, node, format, false)?);
     Ok(node)
