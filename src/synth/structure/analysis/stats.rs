@@ -23,12 +23,12 @@
 //! and its position within the bin gives the value (uniform inside the bin, i.e. the
 //! piecewise-linear CDF is inverted exactly).
 
-use super::ellipse::{self, Moments};
-use super::faces::{self, FaceOptions, Faces};
-use super::format::{round_to, StructureError};
-use super::types::{Ellipse, Point, Subdivision};
-use super::validate::Cleaned;
 use crate::synth::rng::Rng;
+use crate::synth::structure::analysis::ellipse::{self, Moments};
+use crate::synth::structure::mesh::faces::{self, FaceOptions, Faces};
+use crate::synth::structure::types::{Ellipse, Point, Subdivision};
+use crate::synth::structure::validate::Cleaned;
+use crate::synth::structure::{round_to, StructureError};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 

@@ -20,8 +20,8 @@
 //! ignored, so floating-point noise in arc lengths (rotated, rescaled or re-started copies of
 //! a polygon) does not leave slivers that the square root would amplify.
 
-use super::faces::signed_area;
-use super::types::Point;
+use crate::synth::structure::mesh::faces::signed_area;
+use crate::synth::structure::types::Point;
 use std::f64::consts::{PI, TAU};
 
 /// Breakpoints (in normalised arc length) closer than this are one breakpoint.

@@ -14,10 +14,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::controls::{point_allowed, Controls};
-use super::lloyd::{lloyd, LloydParams, LloydResult};
-use super::metric::{canonical, elliptic_distance};
-use super::types::{Ellipse, Point};
+use crate::synth::structure::relaxation::controls::{point_allowed, Controls};
+use crate::synth::structure::relaxation::lloyd::{lloyd, LloydParams, LloydResult};
+use crate::synth::structure::relaxation::metric::{canonical, elliptic_distance};
+use crate::synth::structure::types::{Ellipse, Point};
 
 /// An editable generator list.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -210,10 +210,10 @@ pub fn edit_and_relax(
 
 #[cfg(test)]
 mod tests {
-    use super::super::lloyd::test_support::random_ellipses;
-    use super::super::voronoi::region_sizes;
     use super::*;
     use crate::synth::rng::Rng;
+    use crate::synth::structure::fixtures::ellipses::random_ellipses;
+    use crate::synth::structure::relaxation::voronoi::region_sizes;
 
     const W: usize = 400;
     const H: usize = 400;

@@ -18,10 +18,10 @@
 //! `NO_REGION` areas enclosed by labelled pixels); [`face_labels`] recovers the id of each
 //! face.
 
-use super::faces::Faces;
-use super::format::StructureError;
-use super::types::{Labels, Point, Subdivision, NO_REGION};
-use super::validate;
+use crate::synth::structure::mesh::faces::Faces;
+use crate::synth::structure::types::{Labels, Point, Subdivision, NO_REGION};
+use crate::synth::structure::validate;
+use crate::synth::structure::StructureError;
 
 struct Lattice<'a> {
     ids: &'a [u32],
@@ -369,8 +369,8 @@ pub fn face_labels(ids: &[u32], w: usize, h: usize, sub: &Subdivision, faces: &F
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synth::structure::faces::extract_faces;
-    use crate::synth::structure::standins;
+    use crate::synth::structure::fixtures::standins;
+    use crate::synth::structure::mesh::faces::extract_faces;
 
     fn check_valid(sub: &Subdivision) -> Faces {
         let cleaned = validate::clean(sub).expect("valid import");

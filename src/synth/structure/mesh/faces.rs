@@ -20,13 +20,13 @@
 //! (an island); otherwise it is part of the unbounded face. With `C` components, the Euler
 //! relation reads `N_R + N_V = N_E + C` (`C = 1`: the digest's `N_R + N_V = N_E + 1`).
 //!
-//! The input must be valid (see [`super::validate`]); dangling edges are tolerated (both
+//! The input must be valid (see [`crate::synth::structure::validate`]); dangling edges are tolerated (both
 //! sides get the same face and the boundary walks around them) but should be pruned first
-//! with [`super::validate::clean`], as [`analyse_faces`] does.
+//! with [`crate::synth::structure::validate::clean`], as [`analyse_faces`] does.
 
-use super::format::StructureError;
-use super::types::{Mesh, Point, Subdivision};
-use super::validate::{self, Cleaned};
+use crate::synth::structure::types::{Mesh, Point, Subdivision};
+use crate::synth::structure::validate::{self, Cleaned};
+use crate::synth::structure::StructureError;
 use std::cmp::Ordering;
 
 /// One bounded face.
@@ -546,8 +546,8 @@ mod tests {
 
     #[test]
     fn f1_import_of_standins() {
+        use crate::synth::structure::fixtures::standins;
         use crate::synth::structure::format::{parse_structure_file, to_json_sized};
-        use crate::synth::structure::standins;
         for s in [
             standins::wall_random(&Default::default(), 4),
             standins::wall_layered(&Default::default(), 4),

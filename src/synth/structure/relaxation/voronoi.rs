@@ -49,8 +49,8 @@ use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::metric::{segment_distance, EllipseFrame, MetricKind};
-use super::types::{Ellipse, Labels, Point, NO_REGION};
+use crate::synth::structure::relaxation::metric::{segment_distance, EllipseFrame, MetricKind};
+use crate::synth::structure::types::{Ellipse, Labels, Point, NO_REGION};
 
 /// A Voronoi generator.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -1117,7 +1117,7 @@ mod tests {
     /// median IoU of interior regions ≥ 0.75 and valency 3 at ≥ 95 % of junction corners.
     #[test]
     fn f8_fit_then_voronoi() {
-        use crate::synth::structure::lloyd::test_support::fit_regions;
+        use crate::synth::structure::fixtures::ellipses::fit_regions;
         let (w, h) = (480, 400);
         let mut rng = Rng::new(80);
         // Ground truth 1: Euclidean Voronoi of a jittered grid (cells-like).

@@ -2,7 +2,7 @@
 //! §2.11.
 //!
 //! Each iteration: (i) discrete anisotropic Voronoi of the generators (growth by default,
-//! [`super::voronoi`]); (ii) per region, the density-weighted centroid of its pixels; the
+//! [`crate::synth::structure::relaxation::voronoi`]); (ii) per region, the density-weighted centroid of its pixels; the
 //! generator moves there. Options:
 //!
 //! * `rotate`: θ becomes the angle of the region's fitted ellipse (unweighted pixel
@@ -24,7 +24,7 @@
 //! generators (full-resolution pixels) is below `tol`, or after `max_iters` iterations.
 //!
 //! Determinism: the flood is exact whatever the thread count (its parallel parts write disjoint
-//! pixels; see [`super::voronoi`]); centroid, covariance, orientation and energy sums are
+//! pixels; see [`crate::synth::structure::relaxation::voronoi`]); centroid, covariance, orientation and energy sums are
 //! integers (pixel coordinates doubled, weights quantised to `0..=65535`) added in any order,
 //! and the energy is then evaluated per region in id order, so results are bit-identical for
 //! any rayon thread count.
@@ -36,13 +36,13 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::controls::{
+use crate::synth::structure::relaxation::controls::{
     density_weight, doubled_angle_field, orientation_at, point_allowed, quantize_weight, resample_bilinear,
     resample_nearest, size_factor, Controls, OrientationMode,
 };
-use super::metric::{wrap_axial, MetricKind};
-use super::types::{Ellipse, Labels, NO_REGION};
-use super::voronoi::{Domain, VoronoiMode, VoronoiParams, VoronoiWorkspace};
+use crate::synth::structure::relaxation::metric::{wrap_axial, MetricKind};
+use crate::synth::structure::relaxation::voronoi::{Domain, VoronoiMode, VoronoiParams, VoronoiWorkspace};
+use crate::synth::structure::types::{Ellipse, Labels, NO_REGION};
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LloydParams {
@@ -451,143 +451,12 @@ fn nearest_region_pixel(labels: &[u32], w: usize, acc: &Acc, g: u32, c: [f64; 2]
     best.1
 }
 
-/// Helpers shared by the structure-synthesis tests (pixel ellipse fits, statistics).
-#[cfg(test)]
-pub(crate) mod test_support {
-    use super::super::metric::wrap_axial;
-    use super::super::types::{Ellipse, Labels};
-    use crate::synth::rng::Rng;
-    use std::f64::consts::PI;
-
-    /// A region's pixel-moment fit (`a = 2√λ1`, `b = 2√λ2`) and pixel count.
-    #[derive(Clone, Copy, Debug)]
-    pub struct Fit {
-        pub ellipse: Ellipse,
-        pub area: f64,
-        /// `λ1/λ2`.
-        pub anisotropy: f64,
-        /// Touches the raster border.
-        pub border: bool,
-    }
-
-    /// Pixel-moment ellipse fits of labels `0..n` (`None` for empty regions).
-    pub fn fit_regions(labels: &Labels, n: usize) -> Vec<Option<Fit>> {
-        let (w, h) = (labels.width, labels.height);
-        let mut s = vec![[0.0f64; 6]; n];
-        let mut border = vec![false; n];
-        for y in 0..h {
-            for x in 0..w {
-                let l = labels.data[y * w + x] as usize;
-                if l >= n {
-                    continue;
-                }
-                let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
-                let a = &mut s[l];
-                a[0] += 1.0;
-                a[1] += px;
-                a[2] += py;
-                a[3] += px * px;
-                a[4] += px * py;
-                a[5] += py * py;
-                if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
-                    border[l] = true;
-                }
-            }
-        }
-        s.iter()
-            .zip(border)
-            .map(|(a, border)| {
-                if a[0] < 1.0 {
-                    return None;
-                }
-                let m = a[0];
-                let (cx, cy) = (a[1] / m, a[2] / m);
-                let sxx = a[3] / m - cx * cx;
-                let sxy = a[4] / m - cx * cy;
-                let syy = a[5] / m - cy * cy;
-                let mean = 0.5 * (sxx + syy);
-                let d = (0.25 * (sxx - syy).powi(2) + sxy * sxy).sqrt();
-                let (l1, l2) = (mean + d, (mean - d).max(1e-12));
-                let theta = wrap_axial(0.5 * (2.0 * sxy).atan2(sxx - syy));
-                Some(Fit {
-                    ellipse: Ellipse { center: [cx, cy], a: 2.0 * l1.sqrt(), b: 2.0 * l2.sqrt(), theta },
-                    area: m,
-                    anisotropy: l1 / l2,
-                    border,
-                })
-            })
-            .collect()
-    }
-
-    /// Random ellipses: semi-major in `[amin, amax)`, aspect in `[1, amax_ratio)`, any angle.
-    pub fn random_ellipses(
-        rng: &mut Rng,
-        n: usize,
-        w: usize,
-        h: usize,
-        amin: f64,
-        amax: f64,
-        ratio: f64,
-    ) -> Vec<Ellipse> {
-        (0..n)
-            .map(|_| {
-                let a = rng.range(amin, amax);
-                let b = a / rng.range(1.0, ratio);
-                Ellipse {
-                    center: [rng.range(0.0, w as f64), rng.range(0.0, h as f64)],
-                    a,
-                    b,
-                    theta: rng.range(0.0, PI),
-                }
-            })
-            .collect()
-    }
-
-    /// Two-sample Kolmogorov–Smirnov statistic `D`.
-    pub fn ks(a: &[f64], b: &[f64]) -> f64 {
-        let mut a = a.to_vec();
-        let mut b = b.to_vec();
-        a.sort_by(f64::total_cmp);
-        b.sort_by(f64::total_cmp);
-        let (mut i, mut j, mut d) = (0, 0, 0.0f64);
-        while i < a.len() && j < b.len() {
-            let v = a[i].min(b[j]);
-            while i < a.len() && a[i] <= v {
-                i += 1;
-            }
-            while j < b.len() && b[j] <= v {
-                j += 1;
-            }
-            d = d.max((i as f64 / a.len() as f64 - j as f64 / b.len() as f64).abs());
-        }
-        d
-    }
-
-    /// Axial (mod π) circular mean of angles, in `[0, π)`.
-    pub fn axial_mean(t: &[f64]) -> f64 {
-        let (c, s) = t.iter().fold((0.0, 0.0), |(c, s), &t| (c + (2.0 * t).cos(), s + (2.0 * t).sin()));
-        wrap_axial(0.5 * s.atan2(c))
-    }
-
-    /// Mean resultant length of the doubled angles (1 = all equal, 0 = uniform).
-    pub fn axial_concentration(t: &[f64]) -> f64 {
-        let (c, s) = t.iter().fold((0.0, 0.0), |(c, s), &t| (c + (2.0 * t).cos(), s + (2.0 * t).sin()));
-        (c * c + s * s).sqrt() / t.len() as f64
-    }
-
-    /// Smallest absolute difference of two axial angles.
-    pub fn axial_diff(a: f64, b: f64) -> f64 {
-        let d = (a - b).rem_euclid(PI);
-        d.min(PI - d)
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    use super::test_support::*;
     use super::*;
     use crate::raster::Image;
     use crate::synth::rng::Rng;
+    use crate::synth::structure::fixtures::ellipses::*;
 
     fn run(w: usize, h: usize, gens: &[Ellipse], controls: &Controls, params: &LloydParams) -> LloydResult {
         lloyd(w, h, gens, None, controls, params)
@@ -667,7 +536,7 @@ mod tests {
         let gens = random_ellipses(&mut rng, n, w, h, 10.0, 30.0, 2.0);
         let params = LloydParams { resolution: 0.5, ..Default::default() };
         let r = run(w, h, &gens, &Controls::default(), &params);
-        let sizes = super::super::voronoi::region_sizes(&r.labels, r.generators.len());
+        let sizes = crate::synth::structure::relaxation::voronoi::region_sizes(&r.labels, r.generators.len());
         let nonempty = sizes.iter().filter(|&&s| s > 0).count();
         let min_half = sizes.iter().map(|&s| s as f64 / 4.0).fold(f64::INFINITY, f64::min);
         eprintln!(
@@ -703,8 +572,8 @@ mod tests {
         });
         let mut gens = gens;
         gens.retain(|e| {
-            super::super::controls::point_allowed(
-                Some(&super::super::controls::allowed_from_occupancy(&occupancy)),
+            crate::synth::structure::relaxation::controls::point_allowed(
+                Some(&crate::synth::structure::relaxation::controls::allowed_from_occupancy(&occupancy)),
                 w,
                 h,
                 e.center,

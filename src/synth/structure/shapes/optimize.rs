@@ -75,11 +75,11 @@
 //! collected in order; moves, merges and removals are validated and applied sequentially in
 //! index order. The result is bit-identical for any rayon thread count.
 
-use super::associate::{associate, AssociateParams, Association};
-use super::faces::signed_area;
-use super::stats::percentile;
-use super::types::{Mesh, Point};
-use super::validate::{point_segment_distance, segment_contact};
+use crate::synth::structure::analysis::stats::percentile;
+use crate::synth::structure::mesh::faces::signed_area;
+use crate::synth::structure::shapes::associate::{associate, AssociateParams, Association};
+use crate::synth::structure::types::{Mesh, Point};
+use crate::synth::structure::validate::{point_segment_distance, segment_contact};
 use rayon::prelude::*;
 use std::collections::HashSet;
 
@@ -456,7 +456,13 @@ fn matched_corner_targets(poly: &[Point], placed: &[Point]) -> Vec<Point> {
     let d2 = |a: Point, b: Point| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2);
     let corners: Vec<Point> = (0..m)
         .filter(|&k| {
-            super::stats::turn_angle(placed[(k + m - 1) % m], placed[k], placed[(k + 1) % m]).abs() > 5f64.to_radians()
+            crate::synth::structure::analysis::stats::turn_angle(
+                placed[(k + m - 1) % m],
+                placed[k],
+                placed[(k + 1) % m],
+            )
+            .abs()
+                > 5f64.to_radians()
         })
         .map(|k| placed[k])
         .collect();
@@ -1167,7 +1173,9 @@ fn drop_straight(st: &mut State, fixed: &[bool], straight: f64) -> Vec<bool> {
                 continue;
             }
             let (a, b) = (nb[0], nb[1]);
-            if super::stats::turn_angle(st.verts[a], st.verts[v], st.verts[b]).abs() >= straight {
+            if crate::synth::structure::analysis::stats::turn_angle(st.verts[a], st.verts[v], st.verts[b]).abs()
+                >= straight
+            {
                 continue;
             }
             let rids: Vec<usize> = st.incidence[v].iter().map(|&(r, _)| r).collect();
@@ -1220,8 +1228,8 @@ pub fn check_mesh(mesh: &Mesh) -> Result<(), String> {
             return Err(format!("region {r}: signed area {a} is not positive"));
         }
     }
-    let sub = super::faces::mesh_to_subdivision(mesh);
-    if let Some(c) = super::validate::find_crossings_limited(&sub, 1).first() {
+    let sub = crate::synth::structure::mesh::faces::mesh_to_subdivision(mesh);
+    if let Some(c) = crate::synth::structure::validate::find_crossings_limited(&sub, 1).first() {
         return Err(format!("edges {:?} meet at {:?}", c.edges.map(|e| sub.edges[e]), c.point));
     }
     Ok(())
@@ -1230,11 +1238,11 @@ pub fn check_mesh(mesh: &Mesh) -> Result<(), String> {
 #[cfg(test)]
 mod tests_support {
     use super::*;
-    use crate::synth::structure::ellipse::fit_polygon;
-    use crate::synth::structure::faces::{extract_faces, mesh_to_subdivision};
-    use crate::synth::structure::labels_import::import_labels;
-    use crate::synth::structure::standins::StandIn;
-    use crate::synth::structure::stats::{analyse, StatModel, StatsConfig};
+    use crate::synth::structure::analysis::ellipse::fit_polygon;
+    use crate::synth::structure::analysis::labels_import::import_labels;
+    use crate::synth::structure::analysis::stats::{analyse, StatModel, StatsConfig};
+    use crate::synth::structure::fixtures::standins::StandIn;
+    use crate::synth::structure::mesh::faces::{extract_faces, mesh_to_subdivision};
     use crate::synth::structure::types::NO_REGION;
 
     /// Labels every pixel with the ellipse of smallest elliptic distance
@@ -1393,9 +1401,9 @@ mod tests_support {
 mod tests {
     use super::tests_support::*;
     use super::*;
-    use crate::synth::structure::report::compare;
-    use crate::synth::structure::standins::{self, StandIn};
-    use crate::synth::structure::stats::ks_two_sample;
+    use crate::synth::structure::analysis::report::compare;
+    use crate::synth::structure::analysis::stats::ks_two_sample;
+    use crate::synth::structure::fixtures::standins::{self, StandIn};
 
     /// Every kept border vertex is still on its side(s) of the domain; corners have not moved.
     fn check_border_slides(mesh: &Mesh, border: &[bool], res: &ShapeResult, w: f64, h: f64) {

@@ -7,9 +7,9 @@
 //! * **occupancy** (`&[f32]`, luminance): black (`L < 0.5`) = forbidden. The four thesis
 //!   operations are (1) [`remove_forbidden`] removes ellipses (centre in a forbidden pixel, or
 //!   any overlap), (2) forbidden pixels are never pushed into the flooding queue
-//!   ([`super::voronoi::Domain::allowed`]), (3) so they never enter a centroid, and (4)
+//!   ([`crate::synth::structure::relaxation::voronoi::Domain::allowed`]), (3) so they never enter a centroid, and (4)
 //!   polygonisation flags the mesh vertices on the border of the forbidden area
-//!   ([`super::polygonize::Polygonization::on_occupancy_border`]) so stage 2 can fix them.
+//!   ([`crate::synth::structure::mesh::polygonize::Polygonization::on_occupancy_border`]) so stage 2 can fix them.
 //! * **size** (`&[f32]`, luminance), in one of two [`SizeMode`]s, read at the ellipse centre
 //!   and multiplied into `(a, b)` ([`size_factor`]): `scale`, `k = k_min + (1 − k_min)·L`
 //!   (the digest's proposal), or `fixed`, the thesis's other mode: inside the marked area
@@ -22,10 +22,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::metric::{wrap_axial, MetricKind};
-use super::types::{Ellipse, Point};
-use super::voronoi::pixel_coord;
 use crate::raster::Image;
+use crate::synth::structure::relaxation::metric::{wrap_axial, MetricKind};
+use crate::synth::structure::relaxation::voronoi::pixel_coord;
+use crate::synth::structure::types::{Ellipse, Point};
 
 /// The density → weight mapping of §2.8.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -177,7 +177,7 @@ pub fn point_allowed(allowed: Option<&[bool]>, width: usize, height: usize, p: P
 
 /// Does any forbidden pixel centre lie inside (or on) the ellipse?
 pub fn ellipse_overlaps_forbidden(e: &Ellipse, width: usize, height: usize, allowed: &[bool]) -> bool {
-    let frame = super::metric::EllipseFrame::new(e);
+    let frame = crate::synth::structure::relaxation::metric::EllipseFrame::new(e);
     let r = e.a;
     let x0 = pixel_coord(e.center[0] - r, width);
     let x1 = pixel_coord(e.center[0] + r, width);

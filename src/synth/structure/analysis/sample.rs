@@ -3,10 +3,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::format::{parse_structure_file, StructureError, StructureFile};
-use super::labels_import::import_labels;
-use super::stats::{self, StatModel, StatsConfig};
-use super::{Ellipse, Mesh, Point, Subdivision};
+use crate::synth::structure::analysis::labels_import::import_labels;
+use crate::synth::structure::analysis::stats::{self, StatModel, StatsConfig};
+use crate::synth::structure::format::{parse_structure_file, StructureFile};
+use crate::synth::structure::StructureError;
+use crate::synth::structure::{Ellipse, Mesh, Point, Subdivision};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SampleStructure {
@@ -90,8 +91,8 @@ pub fn analyse_subdivision(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synth::structure::standins;
-    use crate::synth::structure::stats::EllipseFit;
+    use crate::synth::structure::analysis::stats::EllipseFit;
+    use crate::synth::structure::fixtures::standins;
 
     #[test]
     fn a_standin_analyses_into_its_regions() {

@@ -1,6 +1,6 @@
 //! Generator synthesis (digest 004 §2.8): trivial synthesis (perturb / swap the original
 //! ellipses) and statistical synthesis stage 1 (sample `N'` ellipses, then relax them with
-//! [`super::lloyd::lloyd`]).
+//! [`crate::synth::structure::relaxation::lloyd::lloyd`]).
 //!
 //! Statistical synthesis:
 //!
@@ -26,13 +26,13 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::controls::{
+use crate::synth::rng::Rng;
+use crate::synth::structure::relaxation::controls::{
     allowed_area, allowed_from_occupancy, area_weight, density_weight, ellipse_overlaps_forbidden, point_allowed,
     Controls, RemoveMode,
 };
-use super::metric::canonical;
-use super::types::{Ellipse, Point};
-use crate::synth::rng::Rng;
+use crate::synth::structure::relaxation::metric::canonical;
+use crate::synth::structure::types::{Ellipse, Point};
 
 /// Draws one region shape `(a, b, θ)` (semi-axes, angle; any order of `a`, `b` is accepted
 /// and canonicalised).
@@ -243,7 +243,7 @@ impl PixelSampler {
 }
 
 /// Statistical synthesis stage 1, sampling: `N'` generators with shapes from `shapes` and
-/// centres from `centers`. Relax the result with [`super::lloyd::lloyd`].
+/// centres from `centers`. Relax the result with [`crate::synth::structure::relaxation::lloyd::lloyd`].
 pub fn statistical(
     width: usize,
     height: usize,
@@ -378,7 +378,8 @@ pub fn drop_forbidden(
     mode: RemoveMode,
 ) -> (Vec<Ellipse>, usize) {
     let allowed = allowed_from_occupancy(occupancy);
-    let removed = super::controls::remove_forbidden(ellipses, width, height, &allowed, mode);
+    let removed =
+        crate::synth::structure::relaxation::controls::remove_forbidden(ellipses, width, height, &allowed, mode);
     let kept: Vec<Ellipse> =
         ellipses.iter().enumerate().filter(|(i, _)| removed.binary_search(i).is_err()).map(|(_, e)| *e).collect();
     (kept, removed.len())
@@ -386,14 +387,14 @@ pub fn drop_forbidden(
 
 #[cfg(test)]
 mod tests {
-    use super::super::controls::SizeMode;
-    use super::super::lloyd::test_support::*;
-    use super::super::lloyd::{lloyd, LloydParams, LloydResult};
-    use super::super::metric::MetricKind;
-    use super::super::types::NO_REGION;
-    use super::super::voronoi::region_sizes;
     use super::*;
     use crate::raster::Image;
+    use crate::synth::structure::fixtures::ellipses::*;
+    use crate::synth::structure::relaxation::controls::SizeMode;
+    use crate::synth::structure::relaxation::lloyd::{lloyd, LloydParams, LloydResult};
+    use crate::synth::structure::relaxation::metric::MetricKind;
+    use crate::synth::structure::relaxation::voronoi::region_sizes;
+    use crate::synth::structure::types::NO_REGION;
 
     /// A relaxed "original" tiling and its interior regions' refitted ellipses and areas.
     struct Example {
@@ -566,10 +567,10 @@ mod tests {
             })
             .collect();
         let rbar = 150.0;
-        let dparams = super::super::controls::DensityParams::default();
+        let dparams = crate::synth::structure::relaxation::controls::DensityParams::default();
         let weight_at = |p: Point| {
-            let l = super::super::controls::sample_bilinear(&density, w, h, p) as f32;
-            super::super::controls::density_weight(l, &dparams) as f64
+            let l = crate::synth::structure::relaxation::controls::sample_bilinear(&density, w, h, p) as f32;
+            crate::synth::structure::relaxation::controls::density_weight(l, &dparams) as f64
         };
         let mut results = Vec::new();
         for with_map in [false, true] {

@@ -10,7 +10,7 @@
 //! pixel moments over a label raster (the thesis's way: all pixels of the region, pixel
 //! centres at `(i + 0.5, j + 0.5)`, optionally weighted).
 
-use super::types::{Ellipse, Labels, Point, NO_REGION};
+use crate::synth::structure::types::{Ellipse, Labels, Point, NO_REGION};
 use std::f64::consts::PI;
 
 /// Area, centroid and normalised covariance `[Σxx, Σxy, Σyy]` of a region.
@@ -39,7 +39,7 @@ fn ring_integrals(ring: &[Point], o: Point, acc: &mut [f64; 6]) {
 }
 
 /// Moments of a region bounded by `rings` (outer boundary and holes with opposite
-/// orientations, as [`super::faces::Faces::rings`] returns them). Either global orientation
+/// orientations, as [`crate::synth::structure::mesh::faces::Faces::rings`] returns them). Either global orientation
 /// works. `None` if the area is zero.
 pub fn rings_moments(rings: &[Vec<Point>]) -> Option<Moments> {
     let first = rings.iter().find(|r| !r.is_empty())?;

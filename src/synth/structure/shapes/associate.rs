@@ -18,9 +18,9 @@
 //! Generated regions are processed in parallel; each result depends only on its own inputs,
 //! so the output does not depend on the thread count.
 
-use super::ellipse::polygon_moments;
-use super::turning::{best_match, rotate_about, turning_function, TurningFunction};
-use super::types::Point;
+use crate::synth::structure::analysis::ellipse::polygon_moments;
+use crate::synth::structure::shapes::turning::{best_match, rotate_about, turning_function, TurningFunction};
+use crate::synth::structure::types::Point;
 use rayon::prelude::*;
 
 /// Options of [`associate`] (`shapes.area_tol`, `shapes.allow_rotation`, V13).
@@ -290,8 +290,8 @@ fn associate_one(
 mod tests {
     use super::*;
     use crate::synth::rng::Rng;
-    use crate::synth::structure::ellipse::polygon_moments;
-    use crate::synth::structure::standins;
+    use crate::synth::structure::analysis::ellipse::polygon_moments;
+    use crate::synth::structure::fixtures::standins;
 
     fn interior_polygons(s: &standins::StandIn) -> Vec<Vec<Point>> {
         let border = s.border_regions();

@@ -16,7 +16,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::types::{Ellipse, Point};
+use crate::synth::structure::types::{Ellipse, Point};
 
 /// Which norm of `(u/a, v/b)` measures the distance to a generator.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]

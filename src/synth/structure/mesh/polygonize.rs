@@ -36,7 +36,7 @@ use std::collections::HashMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::types::{Labels, Mesh, Point, NO_REGION};
+use crate::synth::structure::types::{Labels, Mesh, Point, NO_REGION};
 
 /// Label of the pixels outside the raster.
 const OUT: u32 = u32::MAX - 1;
@@ -1228,12 +1228,12 @@ fn bridge(vertices: &[Point], outer: &[usize], hole: &[usize], others: &[Vec<usi
 
 #[cfg(test)]
 mod tests {
-    use super::super::controls::Controls;
-    use super::super::lloyd::test_support::random_ellipses;
-    use super::super::lloyd::{lloyd, LloydParams};
-    use super::super::voronoi::{voronoi_ellipses, Domain, VoronoiMode, VoronoiParams};
     use super::*;
     use crate::synth::rng::Rng;
+    use crate::synth::structure::fixtures::ellipses::random_ellipses;
+    use crate::synth::structure::relaxation::controls::Controls;
+    use crate::synth::structure::relaxation::lloyd::{lloyd, LloydParams};
+    use crate::synth::structure::relaxation::voronoi::{voronoi_ellipses, Domain, VoronoiMode, VoronoiParams};
     use std::collections::HashSet;
 
     #[derive(Debug, Default)]
@@ -1422,8 +1422,8 @@ mod tests {
         let gens: Vec<_> = random_ellipses(&mut rng, 100, w, h, 8.0, 20.0, 2.0)
             .into_iter()
             .filter(|e| {
-                super::super::controls::point_allowed(
-                    Some(&super::super::controls::allowed_from_occupancy(&occ)),
+                crate::synth::structure::relaxation::controls::point_allowed(
+                    Some(&crate::synth::structure::relaxation::controls::allowed_from_occupancy(&occ)),
                     w,
                     h,
                     e.center,

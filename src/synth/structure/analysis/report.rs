@@ -28,8 +28,8 @@
 //! when `D = 0`. [`to_json`] writes pretty JSON with sorted keys and every float rounded to
 //! 1e-9, so the bytes are stable.
 
-use super::ellipse::axial_angle_diff;
-use super::stats::{ks_two_sample, round_json, Counts, Histogram1, StatModel};
+use crate::synth::structure::analysis::ellipse::axial_angle_diff;
+use crate::synth::structure::analysis::stats::{ks_two_sample, round_json, Counts, Histogram1, StatModel};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -375,9 +375,9 @@ pub fn to_json(report: &StatsReport) -> String {
 mod tests {
     use super::*;
     use crate::synth::rng::Rng;
-    use crate::synth::structure::faces::mesh_to_subdivision;
-    use crate::synth::structure::standins::{self, StandIn};
-    use crate::synth::structure::stats::{analyse, StatsConfig};
+    use crate::synth::structure::analysis::stats::{analyse, StatsConfig};
+    use crate::synth::structure::fixtures::standins::{self, StandIn};
+    use crate::synth::structure::mesh::faces::mesh_to_subdivision;
     use crate::synth::structure::types::Mesh;
 
     fn model_of(mesh: &Mesh, w: f64, h: f64) -> StatModel {
@@ -501,12 +501,12 @@ mod tests {
     fn histogram_ks_and_p_values() {
         let a = Histogram1::build(
             &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0],
-            crate::synth::structure::stats::VarKind::Continuous,
+            crate::synth::structure::analysis::stats::VarKind::Continuous,
         )
         .unwrap();
         let b = Histogram1::build(
             &[5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0],
-            crate::synth::structure::stats::VarKind::Continuous,
+            crate::synth::structure::analysis::stats::VarKind::Continuous,
         )
         .unwrap();
         assert_eq!(histogram_ks(&a, &a), 0.0);
@@ -514,7 +514,8 @@ mod tests {
         // The piecewise-linear CDFs are a uniform on [1, 8] and one on [5, 12]: D = 4/7 at 5 and 8.
         assert!((d - 4.0 / 7.0).abs() < 1e-12, "{d}");
         // Constant samples jump: D = 1 between two different constants.
-        let k = |v: f64| Histogram1::build(&[v; 5], crate::synth::structure::stats::VarKind::Continuous).unwrap();
+        let k =
+            |v: f64| Histogram1::build(&[v; 5], crate::synth::structure::analysis::stats::VarKind::Continuous).unwrap();
         assert_eq!(histogram_ks(&k(2.0), &k(3.0)), 1.0);
         assert_eq!(histogram_ks(&k(2.0), &k(2.0)), 0.0);
         assert_eq!(ks_p_value(0.0, 50, 50), 1.0);
