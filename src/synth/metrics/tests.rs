@@ -1,6 +1,7 @@
 //! Metric sanity: identity, monotonicity under noise, crop vs shuffle, invariances
 //! (digest 000 F6/F8 where they apply to these forms) and thread-count determinism.
 
+use super::luma::luma;
 use super::*;
 use crate::synth::rng::Rng;
 
