@@ -1,12 +1,16 @@
 //! Unit tests of the polygoniser: watertight meshes (F13), occupancy borders, hole bridges,
 //! valency-4 junctions, diagonal touches and noisy labels.
 
+use super::assemble::*;
+use super::cleanup::*;
+use super::simplify::*;
 use super::*;
 use crate::synth::rng::Rng;
 use crate::synth::structure::fixtures::ellipses::random_ellipses;
 use crate::synth::structure::relaxation::controls::Controls;
 use crate::synth::structure::relaxation::lloyd::{lloyd, LloydParams};
 use crate::synth::structure::relaxation::voronoi::{voronoi_ellipses, Domain, VoronoiMode, VoronoiParams};
+use crate::synth::structure::types::Mesh;
 use std::collections::HashSet;
 
 #[derive(Debug, Default)]
