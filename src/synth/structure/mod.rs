@@ -1,7 +1,8 @@
 //! Structure from example (Frasson ch. 3; digest 004 §2): analysis of a drawn subdivision,
 //! anisotropic Lloyd synthesis steered by control maps, polygonisation, shape optimisation.
 //!
-//! The folders follow the pipeline, and each imports only folders before it:
+//! The folders follow the pipeline, and each one's shipped code imports only folders before it
+//! (tests may use any):
 //! `mesh` (edges ⇄ faces, labels → mesh) → `analysis` (a sample's ellipses and statistics)
 //! → `relaxation` (metric, control maps, Voronoi, Lloyd) → `generation` (ellipses to relax,
 //! edits) → `shapes` (stage 2: closest-shape correction). The top-level files are what they
