@@ -11,6 +11,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 type Module = Vec<String>;
+/// Each file's module and the file modules it imports.
+type Graph = BTreeMap<Module, BTreeSet<Module>>;
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     for entry in std::fs::read_dir(dir).expect("read src") {
@@ -125,7 +127,7 @@ fn resolve(from: &Module, path: &[String], files: &BTreeSet<Module>) -> Option<M
     best.filter(|m| m != from)
 }
 
-fn synth_graph() -> (BTreeMap<Module, BTreeSet<Module>>, Vec<(PathBuf, Module)>) {
+fn synth_graph() -> (Graph, Vec<(PathBuf, Module)>) {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut all = Vec::new();
     rust_files(&src, &mut all);
@@ -147,11 +149,11 @@ fn synth_graph() -> (BTreeMap<Module, BTreeSet<Module>>, Vec<(PathBuf, Module)>)
 }
 
 /// A cycle through the graph, as module paths, if there is one.
-fn find_cycle(graph: &BTreeMap<Module, BTreeSet<Module>>) -> Option<Vec<String>> {
+fn find_cycle(graph: &Graph) -> Option<Vec<String>> {
     // 0 = unvisited, 1 = on the stack, 2 = done.
     fn visit(
         m: &Module,
-        graph: &BTreeMap<Module, BTreeSet<Module>>,
+        graph: &Graph,
         state: &mut BTreeMap<Module, u8>,
         stack: &mut Vec<Module>,
     ) -> Option<Vec<String>> {
@@ -204,7 +206,7 @@ fn no_two_files_of_synth_import_each_other() {
 #[test]
 fn the_cycle_finder_finds_a_cycle() {
     let m = |s: &str| s.split('/').map(String::from).collect::<Module>();
-    let graph: BTreeMap<Module, BTreeSet<Module>> = [
+    let graph: Graph = [
         (m("synth/a"), [m("synth/b")].into()),
         (m("synth/b"), [m("synth/c")].into()),
         (m("synth/c"), [m("synth/a")].into()),
