@@ -4,16 +4,16 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use tessera::synth::rng::Rng;
-use tessera::synth::structure::controls::Controls;
-use tessera::synth::structure::lloyd::{lloyd, LloydParams};
-use tessera::synth::structure::optimize::{optimize_shapes, ShapeParams};
-use tessera::synth::structure::polygonize::{polygonize, PolygonizeParams};
-use tessera::synth::structure::sample::analyse_sample;
-use tessera::synth::structure::stats::StatsConfig;
-use tessera::synth::structure::synthesis::{
+use tessera::synth::structure::analysis::sample::analyse_sample;
+use tessera::synth::structure::analysis::stats::StatsConfig;
+use tessera::synth::structure::generation::synthesis::{
     statistical, CenterSource, EmpiricalSampler, ShapeSampling, StatisticalParams,
 };
-use tessera::synth::structure::voronoi::{voronoi_ellipses, Domain, VoronoiMode, VoronoiParams};
+use tessera::synth::structure::mesh::polygonize::{polygonize, PolygonizeParams};
+use tessera::synth::structure::relaxation::controls::Controls;
+use tessera::synth::structure::relaxation::lloyd::{lloyd, LloydParams};
+use tessera::synth::structure::relaxation::voronoi::{voronoi_ellipses, Domain, VoronoiMode, VoronoiParams};
+use tessera::synth::structure::shapes::optimize::{optimize_shapes, ShapeParams};
 use tessera::synth::structure::Ellipse;
 
 const SIZE: usize = 1024;

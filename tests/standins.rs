@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use tessera::raster::{self, Image};
-use tessera::synth::structure::standins::{self as s, StandIn};
+use tessera::synth::structure::fixtures::standins::{self as s, StandIn};
 use tessera::synth::structure::{format, render};
 
 fn all() -> Vec<StandIn> {

@@ -303,7 +303,7 @@ pub fn axis_name(a: &Axis) -> String {
 /// A ranking as the JSON a `.json` output of the sample holds.
 pub fn ranking_json(r: &Ranking) -> Bytes {
     let mut value = serde_json::to_value(r).expect("serialises");
-    crate::synth::structure::stats::round_json(&mut value, 1e-9);
+    crate::synth::structure::analysis::stats::round_json(&mut value, 1e-9);
     let mut text = serde_json::to_string_pretty(&value).expect("serialises");
     text.push('\n');
     Bytes(text.into_bytes())

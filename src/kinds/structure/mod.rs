@@ -21,21 +21,25 @@ use crate::graph::{NodeId, RunCx, StageError};
 use crate::lang::{Decl, Diagnostic, Props};
 use crate::raster::{self, Image};
 use crate::synth::rng::Rng;
-use crate::synth::structure::controls::{
+use crate::synth::structure::analysis::labels_import::rasterize_polygons;
+use crate::synth::structure::analysis::report;
+use crate::synth::structure::analysis::sample::{
+    analyse_label_image, analyse_sample, analyse_subdivision, SampleStructure,
+};
+use crate::synth::structure::analysis::stats::{EllipseFit, StatsConfig};
+use crate::synth::structure::generation::edits::{self, Edit, Target};
+use crate::synth::structure::generation::synthesis::{
+    self, CenterSource, EmpiricalSampler, ShapeSampling, StatisticalParams,
+};
+use crate::synth::structure::mesh::faces::mesh_to_subdivision;
+use crate::synth::structure::mesh::polygonize::{self, Polygonization, PolygonizeParams};
+use crate::synth::structure::relaxation::controls::{
     allowed_from_occupancy, Controls, DensityParams, OrientationMode, RemoveMode, SizeMode,
 };
-use crate::synth::structure::edits::{self, Edit, Target};
-use crate::synth::structure::faces::mesh_to_subdivision;
-use crate::synth::structure::labels_import::rasterize_polygons;
-use crate::synth::structure::lloyd::{self, IterationStats, LloydParams};
-use crate::synth::structure::metric::MetricKind;
-use crate::synth::structure::optimize::{self, ShapeParams};
-use crate::synth::structure::polygonize::{self, Polygonization, PolygonizeParams};
-use crate::synth::structure::report;
-use crate::synth::structure::sample::{analyse_label_image, analyse_sample, analyse_subdivision, SampleStructure};
-use crate::synth::structure::stats::{EllipseFit, StatsConfig};
-use crate::synth::structure::synthesis::{self, CenterSource, EmpiricalSampler, ShapeSampling, StatisticalParams};
-use crate::synth::structure::voronoi::{self, Domain};
+use crate::synth::structure::relaxation::lloyd::{self, IterationStats, LloydParams};
+use crate::synth::structure::relaxation::metric::MetricKind;
+use crate::synth::structure::relaxation::voronoi::{self, Domain};
+use crate::synth::structure::shapes::optimize::{self, ShapeParams};
 use crate::synth::structure::{render, Ellipse, Labels, Mesh, Point};
 use crate::synth::surface::Plane;
 
@@ -216,7 +220,11 @@ fn prepare_maps(cx: &RunCx, m: MapInputs, w: usize, h: usize) -> Result<Maps, St
         size: m.size.map(|i| scalar_map(&cx.input::<Image>(i), w, h)),
         orientation,
         metric: m.metric.map(|i| {
-            crate::synth::structure::controls::metric_map_from_levels(&scalar_map(&cx.input::<Image>(i), w, h))
+            crate::synth::structure::relaxation::controls::metric_map_from_levels(&scalar_map(
+                &cx.input::<Image>(i),
+                w,
+                h,
+            ))
         }),
     })
 }

@@ -56,7 +56,6 @@
 use rayon::prelude::*;
 
 use super::lanes::{par_copy, Lanes, Pooled};
-use super::wrap_or_skip;
 
 /// How coarse cells inherit the free/fixed label of their 2 × 2 children.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
@@ -1598,4 +1597,14 @@ pub(crate) fn solve<V: Pooled>(
         }
     }
     stats
+}
+
+/// Cell `i` of a line of `len` cells: wrapped on a torus, `None` past a rim.
+#[inline]
+pub(super) fn wrap_or_skip(i: isize, len: usize, periodic: bool) -> Option<usize> {
+    if periodic {
+        Some(i.rem_euclid(len as isize) as usize)
+    } else {
+        usize::try_from(i).ok().filter(|&i| i < len)
+    }
 }

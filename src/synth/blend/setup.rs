@@ -5,10 +5,13 @@ use std::borrow::Cow;
 use rayon::prelude::*;
 
 use super::lanes::{F32x4, Lanes, Pooled};
-use super::multigrid::{self, CycleParams, Driver, Hierarchy, Level, SolveBuffers, Stop};
+use super::multigrid::{self, wrap_or_skip, CycleParams, Driver, Hierarchy, Level, SolveBuffers, Stop};
+use super::params::WrapGuidance;
+use super::params::{
+    BlendError, BlendParams, Domain, Method, Mode, Param, Seam, Selector, SolveReport, SolverKind, Topology,
+};
 use super::spectral::{solve_neumann, solve_periodic};
-use super::{wrap_or_skip, Image, WrapGuidance};
-use super::{BlendError, BlendParams, Domain, Method, Mode, Param, Seam, Selector, SolveReport, SolverKind, Topology};
+use crate::raster::Image;
 
 /// Rows per reduction block in this file's f64 sums (fixed: thread-count independent).
 const ROWS_PER_BLOCK: usize = 16;

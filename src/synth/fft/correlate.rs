@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
-use super::{fft_rows, min_len, transpose, PAD};
+use super::rows::{fft_rows, min_len, transpose, PAD};
 
 /// Floating type of the transforms. f64 keeps the rounding bound far below any error difference that
 /// matters, so the exact re-scoring shortlist stays tiny.

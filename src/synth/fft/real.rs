@@ -8,7 +8,7 @@ use rustdct::{DctPlanner, TransformType2And3};
 use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 
-use super::{fft_rows, for_rows, transpose, PAD};
+use super::rows::{fft_rows, for_rows, transpose, PAD};
 
 const ZERO: Complex64 = Complex64::new(0.0, 0.0);
 

@@ -3,7 +3,7 @@
 use rustfft::num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
-use super::LibraryError;
+use super::error::LibraryError;
 use crate::raster::Image;
 use crate::synth::blend::mask::Luma;
 use crate::synth::fft::fft_real;

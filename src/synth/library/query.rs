@@ -3,7 +3,8 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{Features, LibraryError};
+use super::error::LibraryError;
+use super::features::Features;
 use crate::synth::rng::Rng;
 
 /// How two spectra are compared (Eq. 4.4 and the Ch 6 alternatives).

@@ -17,6 +17,7 @@
 //! All results are bit-identical for any rayon thread count.
 
 mod histogram;
+mod luma;
 mod patches;
 mod pyramid;
 mod spectrum;
@@ -68,19 +69,6 @@ pub fn compare_with(output: &Image, sample: &Image, params: &CompareParams) -> C
         colour: colour_distance(output, sample, &params.colour),
         coherence: ps.coherence,
         completeness: ps.completeness,
-    }
-}
-
-/// Rec. 709 luma of channels 0–2, channel 0 for 1 or 2 channels, as a plane.
-pub(crate) fn luma(img: &Image) -> Vec<f32> {
-    const K: [f32; 3] = [0.2126, 0.7152, 0.0722];
-    if img.channels >= 3 {
-        let (r, g, b) = (img.plane(0), img.plane(1), img.plane(2));
-        (0..img.plane_len()).map(|i| K[0] * r[i] + K[1] * g[i] + K[2] * b[i]).collect()
-    } else if img.channels >= 1 {
-        img.plane(0).to_vec()
-    } else {
-        vec![0.0; img.plane_len()]
     }
 }
 

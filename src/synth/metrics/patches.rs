@@ -21,7 +21,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::luma;
+use super::luma::luma;
 use crate::raster::Image;
 use crate::synth::rng::Rng;
 

@@ -14,7 +14,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::luma;
+use super::luma::luma;
 use crate::raster::Image;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -21,7 +21,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::luma;
+use super::luma::luma;
 use crate::raster::Image;
 use crate::synth::fft::RealFft2;
 

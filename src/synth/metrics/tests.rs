@@ -1,6 +1,7 @@
 //! Metric sanity: identity, monotonicity under noise, crop vs shuffle, invariances
 //! (Bourque F6/F8 of [references: bourque §4.5] where they apply to these forms) and thread-count determinism.
 
+use super::luma::luma;
 use super::*;
 use crate::synth::rng::Rng;
 

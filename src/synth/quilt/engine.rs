@@ -9,9 +9,9 @@ use super::params::{
     check_finite_image, check_range, check_size, Coherence, Equalise, Input, Metric, QuiltError, QuiltOptions,
     QuiltParams, SampleChoice,
 };
+use super::result::{BlockRecord, IndexMap, QuiltResult, SourceInfo};
 use super::rotate::rotate_sample;
 use super::search::{direct_error, prepare_spectra, random_choice, search, Choice, Model, Scratch, Source, Template};
-use super::{BlockRecord, IndexMap, QuiltResult, SourceInfo};
 use crate::raster::color::linear_rgb_to_lab;
 use crate::raster::Image;
 use crate::synth::fft::correlate::Plan;

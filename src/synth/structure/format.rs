@@ -1,4 +1,4 @@
-//! The structure file format ([references: frasson §3.1]) and the errors a structure can have.
+//! The structure file format ([references: frasson §3.1]): parsing (with validation) and writing.
 //!
 //! A structure is a JSON object in pixel units with `y` pointing down:
 //!
@@ -18,93 +18,15 @@
 //! * Unknown keys are rejected, so a typo (`"edge"`) is reported instead of ignored.
 //!
 //! [`parse_structure`] parses and validates: indices in range, no self-loops, no two
-//! vertices closer than [`VERTEX_EPS`], no crossing or overlapping edges, and at least one
+//! vertices closer than [`VERTEX_EPS`](super::error::VERTEX_EPS), no crossing or overlapping edges, and at least one
 //! closed region once dangling edges are pruned. Duplicate edges and dangling edges are not
 //! errors; [`super::validate::clean`] removes them and reports what it removed.
 
-use super::types::{Point, Subdivision};
+use super::error::StructureError;
+use super::types::{round_to, Subdivision};
 use super::validate;
 use serde::Deserialize;
-use std::fmt;
 use std::fmt::Write as _;
-
-/// Two vertices closer than this (pixel units) are duplicates, and a vertex closer than
-/// this to an edge it is not an end of touches that edge.
-pub const VERTEX_EPS: f64 = 1e-9;
-
-/// Everything that can be wrong with a structure. Messages name the offending indices
-/// (0-based) and positions so a user can find them in the file.
-#[derive(Clone, Debug, PartialEq)]
-pub enum StructureError {
-    /// The text is not valid JSON or does not have the documented shape.
-    Json { line: usize, column: usize, message: String },
-    /// A field has a valid JSON type but an invalid value (`units`, `size`, a non-finite
-    /// coordinate).
-    InvalidField { field: String, message: String },
-    /// No vertices or no edges.
-    Empty { vertices: usize, edges: usize },
-    /// Edge `edge` refers to vertex `index`, but only `vertex_count` vertices exist.
-    EdgeIndexOutOfRange { edge: usize, index: usize, vertex_count: usize },
-    /// Edge `edge` joins vertex `vertex` to itself.
-    SelfLoop { edge: usize, vertex: usize },
-    /// Vertices `first < second` coincide (closer than [`VERTEX_EPS`]).
-    DuplicateVertices { first: usize, second: usize, position: Point },
-    /// Edges `first < second` cross, overlap or touch at `point` (a vertex lying on an edge
-    /// it does not end at counts as touching).
-    CrossingEdges { first: usize, second: usize, point: Point },
-    /// Every edge is dangling (or the input is otherwise degenerate): no closed region is
-    /// left once dangling edges are pruned.
-    AllDegenerate { edges: usize, pruned: usize },
-}
-
-impl fmt::Display for StructureError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            StructureError::Json { line, column, message } => {
-                write!(f, "malformed structure JSON at line {line}, column {column}: {message}")
-            }
-            StructureError::InvalidField { field, message } => write!(f, "invalid `{field}`: {message}"),
-            StructureError::Empty { vertices, edges } => write!(
-                f,
-                "empty structure: {vertices} vertices and {edges} edges (a structure needs at least 3 vertices \
-                 and 3 edges forming a closed region)"
-            ),
-            StructureError::EdgeIndexOutOfRange { edge, index, vertex_count } => write!(
-                f,
-                "edge {edge} refers to vertex {index}, but there are only {vertex_count} vertices (valid indices \
-                 are 0..={})",
-                vertex_count.saturating_sub(1)
-            ),
-            StructureError::SelfLoop { edge, vertex } => {
-                write!(f, "edge {edge} is a self-loop: both ends are vertex {vertex}")
-            }
-            StructureError::DuplicateVertices { first, second, position } => write!(
-                f,
-                "vertices {first} and {second} coincide at ({}, {}); merge them and renumber the edges",
-                fmt_coord(position[0]),
-                fmt_coord(position[1])
-            ),
-            StructureError::CrossingEdges { first, second, point } => write!(
-                f,
-                "edges {first} and {second} cross at ({}, {}); split them with a shared vertex at the crossing",
-                fmt_coord(point[0]),
-                fmt_coord(point[1])
-            ),
-            StructureError::AllDegenerate { edges, pruned } => write!(
-                f,
-                "degenerate structure: no closed region; all {pruned} of {edges} edges are dangling (pruned) or \
-                 the edges do not enclose any area"
-            ),
-        }
-    }
-}
-
-impl std::error::Error for StructureError {}
-
-fn fmt_coord(v: f64) -> String {
-    let r = round_to(v, 1e-6);
-    format!("{}", if r == 0.0 { 0.0 } else { r })
-}
 
 /// The largest coordinate a structure file may hold, in pixels (the largest image side).
 pub const MAX_COORD: f64 = 16384.0;
@@ -186,20 +108,6 @@ fn strip_position(msg: &str) -> String {
     match msg.rfind(" at line ") {
         Some(i) => msg[..i].to_string(),
         None => msg.to_string(),
-    }
-}
-
-/// Rounds `v` to a multiple of `step` (used for stable output bytes).
-pub(crate) fn round_to(v: f64, step: f64) -> f64 {
-    let r = (v / step).round() * step;
-    // Re-round through the decimal grid so that 0.30000000000000004 prints as 0.3.
-    let digits = (-step.log10()).round().max(0.0) as i32;
-    let s = 10f64.powi(digits);
-    let r = (r * s).round() / s;
-    if r == 0.0 {
-        0.0
-    } else {
-        r
     }
 }
 

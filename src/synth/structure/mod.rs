@@ -1,26 +1,27 @@
 //! Structure from example ([references: frasson §3]): analysis of a drawn subdivision,
 //! anisotropic Lloyd synthesis steered by control maps, polygonisation, shape optimisation.
-pub mod associate;
-pub mod controls;
-pub mod edits;
-pub mod ellipse;
-pub mod faces;
+//!
+//! The folders follow the pipeline, and each one's shipped code imports only folders before it
+//! (tests may use any):
+//! `mesh` (edges ⇄ faces, labels → mesh) → `analysis` (a sample's ellipses and statistics)
+//! → `relaxation` (metric, control maps, Voronoi, Lloyd) → `generation` (ellipses to relax,
+//! edits) → `shapes` (stage 2: closest-shape correction). The top-level files are what they
+//! all share: the plain data (`types`), the file format, validation and its errors, and the
+//! views (`render`). `fixtures` (seeded stand-in samples) is test code, compiled only for
+//! tests or with the `fixtures` feature, never into the shipped library.
+pub mod analysis;
+mod error;
+#[cfg(any(test, feature = "fixtures"))]
+pub mod fixtures;
 pub mod format;
-pub mod labels_import;
-pub mod lloyd;
-pub mod metric;
-pub mod optimize;
-pub mod polygonize;
+pub mod generation;
+pub mod mesh;
+pub mod relaxation;
 pub mod render;
-pub mod report;
-pub mod sample;
-pub mod standins;
-pub mod stats;
-pub mod synthesis;
-pub mod turning;
+pub mod shapes;
 mod types;
 pub mod validate;
-pub mod voronoi;
 
-pub use format::{parse_structure, to_json, StructureError};
+pub use error::{StructureError, VERTEX_EPS};
+pub use format::{parse_structure, to_json};
 pub use types::*;

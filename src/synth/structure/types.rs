@@ -55,3 +55,18 @@ pub struct Mesh {
     /// clockwise on screen because y points down.
     pub regions: Vec<Vec<usize>>,
 }
+
+/// Rounds `v` to a multiple of `step`: the one rounding of structure numbers into output
+/// bytes (files, messages, reports), so equal values always print alike.
+pub(crate) fn round_to(v: f64, step: f64) -> f64 {
+    let r = (v / step).round() * step;
+    // Re-round through the decimal grid so that 0.30000000000000004 prints as 0.3.
+    let digits = (-step.log10()).round().max(0.0) as i32;
+    let s = 10f64.powi(digits);
+    let r = (r * s).round() / s;
+    if r == 0.0 {
+        0.0
+    } else {
+        r
+    }
+}

@@ -10,7 +10,7 @@
 //! Crossing detection uses a uniform grid over the edges' bounding box (about one cell per
 //! edge), so inputs with evenly spread edges cost close to `O(E)`.
 
-use super::format::{StructureError, VERTEX_EPS};
+use super::error::{StructureError, VERTEX_EPS};
 use super::types::{Point, Subdivision};
 use std::collections::HashSet;
 use std::fmt;
