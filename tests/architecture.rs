@@ -768,8 +768,6 @@ fn import_cycles(tree: &Tree) -> Vec<String> {
 }
 
 #[test]
-#[ignore = "2 cycles today, being opened by issue 11: kinds/layer ⇄ kinds/output ⇄ kinds/structure and \
-            synth/structure/format.rs ⇄ validate.rs (run with --ignored to list them)"]
 fn no_import_cycle_between_files() {
     assert_none("import cycles between files", &import_cycles(&tree()));
 }
