@@ -12,141 +12,34 @@
 //! A density-map edit re-runs S2 and what follows, never the analysis; an output's view or
 //! edge width re-runs only that output.
 
-use serde::{Deserialize, Serialize};
-
 use super::map::fit;
-use super::output::encode_image;
-use super::{Bytes, Encoded, FnStage, OutputFormat, Planner};
+use super::{FnStage, Planner};
 use crate::graph::{NodeId, RunCx, StageError};
 use crate::lang::{Decl, Diagnostic, Props};
 use crate::raster::{self, Image};
 use crate::synth::rng::Rng;
-use crate::synth::structure::analysis::labels_import::rasterize_polygons;
-use crate::synth::structure::analysis::report;
-use crate::synth::structure::analysis::sample::{
-    analyse_label_image, analyse_sample, analyse_subdivision, SampleStructure,
-};
+use crate::synth::structure::analysis::sample::{analyse_label_image, analyse_sample, SampleStructure};
 use crate::synth::structure::analysis::stats::{EllipseFit, StatsConfig};
 use crate::synth::structure::generation::edits::{self, Edit, Target};
 use crate::synth::structure::generation::synthesis::{
     self, CenterSource, EmpiricalSampler, ShapeSampling, StatisticalParams,
 };
-use crate::synth::structure::mesh::faces::mesh_to_subdivision;
 use crate::synth::structure::mesh::polygonize::{self, Polygonization, PolygonizeParams};
 use crate::synth::structure::relaxation::controls::{
     allowed_from_occupancy, Controls, DensityParams, OrientationMode, RemoveMode, SizeMode,
 };
-use crate::synth::structure::relaxation::lloyd::{self, IterationStats, LloydParams};
+use crate::synth::structure::relaxation::lloyd::{self, LloydParams};
 use crate::synth::structure::relaxation::metric::MetricKind;
-use crate::synth::structure::relaxation::voronoi::{self, Domain};
 use crate::synth::structure::shapes::optimize::{self, ShapeParams};
-use crate::synth::structure::{render, Ellipse, Labels, Mesh, Point};
+use crate::synth::structure::{Ellipse, Point};
 use crate::synth::surface::Plane;
 
+mod codecs;
 mod spec;
+mod views;
+pub use codecs::{Generators, Relaxed, Shaped};
 pub use spec::SPEC;
-
-/// Generators ready for Lloyd (S1, S1e): the editable set, and how sampling went.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Generators {
-    #[serde(flatten)]
-    pub set: edits::Generators,
-    /// `N'` of statistical synthesis (the generator count before any removal).
-    pub target_count: usize,
-    /// Ellipses the occupancy map removed.
-    pub dropped: usize,
-}
-
-/// The relaxed generators and their label raster (S2).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Relaxed {
-    /// The generators with the axes they were sampled with: edits and re-runs start here.
-    pub generators: Vec<Ellipse>,
-    /// The generators as the final Voronoi step saw them (axes scaled by the size map; equal
-    /// to `generators` without one): the ellipse and distance views draw these.
-    pub sized: Vec<Ellipse>,
-    pub frozen: Vec<bool>,
-    pub labels: Labels,
-    pub iterations: Vec<IterationStats>,
-    pub converged: bool,
-    pub orphans: Vec<usize>,
-}
-
-impl Encoded for SampleStructure {
-    fn encode(&self) -> Vec<u8> {
-        serde_json::to_vec(self).expect("sample structure serialises")
-    }
-
-    fn decode(bytes: &[u8]) -> Result<Self, String> {
-        serde_json::from_slice(bytes).map_err(|e| e.to_string())
-    }
-}
-
-impl Encoded for Generators {
-    fn encode(&self) -> Vec<u8> {
-        serde_json::to_vec(self).expect("generators serialise")
-    }
-
-    fn decode(bytes: &[u8]) -> Result<Self, String> {
-        serde_json::from_slice(bytes).map_err(|e| e.to_string())
-    }
-}
-
-#[derive(Serialize, Deserialize)]
-struct RelaxedMeta {
-    generators: Vec<Ellipse>,
-    sized: Vec<Ellipse>,
-    frozen: Vec<bool>,
-    width: usize,
-    height: usize,
-    iterations: Vec<IterationStats>,
-    converged: bool,
-    orphans: Vec<usize>,
-}
-
-/// Metadata as JSON, then the labels as raw little-endian u32s: a 1024² raster stays 4 MiB.
-impl Encoded for Relaxed {
-    fn encode(&self) -> Vec<u8> {
-        let meta = RelaxedMeta {
-            generators: self.generators.clone(),
-            sized: self.sized.clone(),
-            frozen: self.frozen.clone(),
-            width: self.labels.width,
-            height: self.labels.height,
-            iterations: self.iterations.clone(),
-            converged: self.converged,
-            orphans: self.orphans.clone(),
-        };
-        let json = serde_json::to_vec(&meta).expect("meta serialises");
-        let mut out = Vec::with_capacity(8 + json.len() + 4 * self.labels.data.len());
-        out.extend_from_slice(&(json.len() as u64).to_le_bytes());
-        out.extend_from_slice(&json);
-        for v in &self.labels.data {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
-        out
-    }
-
-    fn decode(bytes: &[u8]) -> Result<Self, String> {
-        let n = u64::from_le_bytes(bytes.get(..8).ok_or("truncated")?.try_into().map_err(|_| "truncated")?) as usize;
-        let json = bytes.get(8..8 + n).ok_or("truncated")?;
-        let meta: RelaxedMeta = serde_json::from_slice(json).map_err(|e| e.to_string())?;
-        let raw = &bytes[8 + n..];
-        if raw.len() != 4 * meta.width * meta.height {
-            return Err("label raster has the wrong length".into());
-        }
-        let data = raw.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-        Ok(Relaxed {
-            generators: meta.generators,
-            sized: meta.sized,
-            frozen: meta.frozen,
-            labels: Labels { width: meta.width, height: meta.height, data },
-            iterations: meta.iterations,
-            converged: meta.converged,
-            orphans: meta.orphans,
-        })
-    }
-}
+pub use views::plan_output;
 
 /// Which optional map inputs a stage has, and at which input index.
 #[derive(Clone, Copy, Default)]
@@ -247,7 +140,7 @@ fn colour_ids(img: &Image) -> Vec<u32> {
     ids
 }
 
-fn metric_kind(name: &str) -> MetricKind {
+pub(super) fn metric_kind(name: &str) -> MetricKind {
     match spec::METRICS.get(name) {
         spec::MetricChoice::Elliptic => MetricKind::Elliptic,
         spec::MetricChoice::Manhattan => MetricKind::Manhattan,
@@ -431,35 +324,6 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     p.parts.insert((d.name.clone(), "analysis"), a1);
     p.parts.insert((d.name.clone(), "mesh"), s4);
     Ok(s4)
-}
-
-/// The final mesh of stage 2 and, per region, the original shape it was matched with.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Shaped {
-    pub mesh: Mesh,
-    pub placed: Vec<Option<Vec<Point>>>,
-    /// Mean shape error per iteration.
-    pub errors: Vec<f64>,
-}
-
-impl Encoded for Shaped {
-    fn encode(&self) -> Vec<u8> {
-        serde_json::to_vec(self).expect("mesh serialises")
-    }
-
-    fn decode(bytes: &[u8]) -> Result<Self, String> {
-        serde_json::from_slice(bytes).map_err(|e| e.to_string())
-    }
-}
-
-impl Encoded for Polygonization {
-    fn encode(&self) -> Vec<u8> {
-        serde_json::to_vec(self).expect("mesh serialises")
-    }
-
-    fn decode(bytes: &[u8]) -> Result<Self, String> {
-        serde_json::from_slice(bytes).map_err(|e| e.to_string())
-    }
 }
 
 fn edit_name(e: &Edit) -> &'static str {
@@ -772,155 +636,4 @@ impl super::Kind for Structure {
         let node = plan_output(p, d, out.from, out.format, out.view, d.props.num("edge_width"))?;
         Ok(Some(super::ViewNode { node, exact }))
     }
-}
-
-/// The stage writing one view of a structure to an output file.
-pub fn plan_output(
-    p: &mut Planner,
-    d: &Decl,
-    structure: &str,
-    format: OutputFormat,
-    view: &str,
-    edge_width: f64,
-) -> Result<NodeId, Diagnostic> {
-    let view = match (view, format) {
-        ("auto", OutputFormat::Json) => "mesh",
-        ("auto", OutputFormat::Svg) => "svg",
-        ("auto", _) => "labels",
-        (v, _) => v,
-    };
-    let wants = match view {
-        "mesh" | "stats" => "json",
-        "svg" => "svg",
-        "labels16" => "png16",
-        _ => "image",
-    };
-    let fits = match wants {
-        "json" => format == OutputFormat::Json,
-        "svg" => format == OutputFormat::Svg,
-        "png16" => format == OutputFormat::Png16 || format == OutputFormat::Exr,
-        _ => !format.is_text(),
-    };
-    if !fits {
-        let hint = match wants {
-            "json" => "a `.json` file",
-            "svg" => "an `.svg` file",
-            "png16" => "a `.png` with `format = png16` (or `.exr`)",
-            _ => "a `.png` or `.exr` file",
-        };
-        return Err(Diagnostic::error(format!("the `{view}` view is written to {hint}"))
-            .with_code("tessera::output_view")
-            .with_label(d.props.span("view").unwrap_or(d.name_span), "this view")
-            .with_label(d.name_span, "this file"));
-    }
-    let lloyd = p.part(structure, "lloyd").expect("structures plan a Lloyd stage");
-    let mesh = p.part(structure, "mesh").expect("structures plan a mesh stage");
-    let view_name = view.to_string();
-    let decl = p.decl(structure);
-    let metric = metric_kind(decl.props.enumeration("metric"));
-    // The structure's size is its surface's, fixed when planned: mesh views need not load
-    // the label raster to learn it.
-    let ((w, h), _) = p.plane(decl.props.reference("on").expect("required"));
-    let params =
-        serde_json::json!({ "view": view, "format": format!("{format:?}"), "edge_width": edge_width, "w": w, "h": h })
-            .to_string();
-    let label = format!("output {}", d.name);
-    let node = match view {
-        // Views of the relaxed generators and their label raster.
-        "ellipses" | "distance" => {
-            let stage = FnStage::new("structure.view", 1, params, move |cx| {
-                let r = cx.input::<Relaxed>(0);
-                let img = match view_name.as_str() {
-                    "ellipses" => render::ellipses_overlay(&r.labels, &r.sized),
-                    _ => distance_view(&r, metric),
-                };
-                encode_image(&img, format)
-            });
-            p.add(label, stage, vec![lloyd], vec![])
-        }
-        // The synthesised structure's statistics against the sample's.
-        "stats" => {
-            let analysis = p.part(structure, "analysis").expect("structures plan an analysis");
-            let stage = FnStage::new("structure.view", 1, params, move |cx| {
-                let m = cx.input::<Shaped>(0);
-                let sample = cx.input::<SampleStructure>(1);
-                let size = [w as f64, h as f64];
-                let generated = analyse_subdivision(&mesh_to_subdivision(&m.mesh), Some(size), &sample.model.config)
-                    .map_err(|e| StageError::new(format!("the synthesised mesh does not analyse: {e}")))?;
-                let report = report::compare(&sample.model, &generated.model);
-                Ok(Bytes(report::to_json(&report).into_bytes()))
-            });
-            p.add(label, stage, vec![mesh, analysis], vec![])
-        }
-        // Views of the final mesh.
-        _ => {
-            let stage = FnStage::new("structure.view", 1, params, move |cx| {
-                let m = cx.input::<Shaped>(0);
-                if view_name == "closest" {
-                    return encode_image(&closest_view(&m, w, h, edge_width), format);
-                }
-                mesh_view(&view_name, &m.mesh, w, h, edge_width, format)
-            });
-            p.add(label, stage, vec![mesh], vec![])
-        }
-    };
-    Ok(node)
-}
-
-/// The mesh's edges in black with each region's associated original, placed on it, in red
-/// (the thesis's Fig. 3.20 view).
-fn closest_view(s: &Shaped, w: usize, h: usize, edge_width: f64) -> Image {
-    let edges = render::edges_raster(&s.mesh, w, h, edge_width);
-    let mut vertices = Vec::new();
-    let mut regions = Vec::new();
-    for poly in s.placed.iter().flatten() {
-        let start = vertices.len();
-        vertices.extend_from_slice(poly);
-        regions.push((start..vertices.len()).collect());
-    }
-    let originals = render::edges_raster(&Mesh { vertices, regions }, w, h, edge_width);
-    let n = w * h;
-    let mut img = Image::new(w, h, 3);
-    for i in 0..n {
-        let (e, o) = (edges.data[i], originals.data[i]);
-        img.data[i] = e;
-        img.data[n + i] = e * o;
-        img.data[2 * n + i] = e * o;
-    }
-    img
-}
-
-fn mesh_view(
-    view: &str,
-    mesh: &Mesh,
-    w: usize,
-    h: usize,
-    edge_width: f64,
-    format: OutputFormat,
-) -> Result<Bytes, StageError> {
-    let polygons =
-        || -> Vec<Vec<Point>> { mesh.regions.iter().map(|r| r.iter().map(|&i| mesh.vertices[i]).collect()).collect() };
-    let img = match view {
-        "mesh" => return Ok(Bytes(render::mesh_json(mesh, w, h).into_bytes())),
-        "svg" => return Ok(Bytes(render::mesh_svg(mesh, w, h, edge_width).into_bytes())),
-        "edges" => render::edges_raster(mesh, w, h, edge_width),
-        "labels" => render::labels_colour(&rasterize_polygons(&polygons(), w, h)),
-        "labels16" => render::labels_u16(&rasterize_polygons(&polygons(), w, h))
-            .ok_or_else(|| StageError::new("more than 65534 regions do not fit a 16-bit PNG"))?,
-        other => return Err(StageError::new(format!("the `{other}` view is not available yet"))),
-    };
-    encode_image(&img, format)
-}
-/// Distance of each pixel to its region's generator, 0 (black) at the generator and 1 at
-/// the farthest labelled pixel; the Fig. 3.14 view.
-fn distance_view(r: &Relaxed, metric: MetricKind) -> Image {
-    let (w, h) = (r.labels.width, r.labels.height);
-    let domain = Domain { width: w, height: h, allowed: None, metric_map: None };
-    let d = voronoi::distance_field(&domain, &r.sized, &r.labels, metric);
-    let max = d.iter().copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max).max(1e-12);
-    let mut img = Image::new(w, h, 1);
-    for (o, v) in img.data.iter_mut().zip(d) {
-        *o = if v.is_finite() { (v / max) as f32 } else { 1.0 };
-    }
-    img
 }

@@ -5,6 +5,8 @@ use std::fmt::Write;
 
 use rayon::prelude::*;
 
+use super::relaxation::metric::MetricKind;
+use super::relaxation::voronoi::{distance_field, Domain};
 use super::validate::point_segment_distance;
 use super::{Ellipse, Labels, Mesh, Point, NO_REGION};
 use crate::raster::Image;
@@ -211,6 +213,44 @@ pub fn mesh_svg(mesh: &Mesh, width: usize, height: usize, stroke: f64) -> String
     }
     s.push_str("</g>\n</svg>\n");
     s
+}
+
+/// The mesh's edges in black with each region's associated original (`placed`, one per
+/// region), placed on it, in red: the thesis's Fig. 3.20 view.
+pub fn closest(mesh: &Mesh, placed: &[Option<Vec<Point>>], w: usize, h: usize, edge_width: f64) -> Image {
+    let edges = edges_raster(mesh, w, h, edge_width);
+    let mut vertices = Vec::new();
+    let mut regions = Vec::new();
+    for poly in placed.iter().flatten() {
+        let start = vertices.len();
+        vertices.extend_from_slice(poly);
+        regions.push((start..vertices.len()).collect());
+    }
+    let originals = edges_raster(&Mesh { vertices, regions }, w, h, edge_width);
+    let n = w * h;
+    let mut img = Image::new(w, h, 3);
+    for i in 0..n {
+        let (e, o) = (edges.data[i], originals.data[i]);
+        img.data[i] = e;
+        img.data[n + i] = e * o;
+        img.data[2 * n + i] = e * o;
+    }
+    img
+}
+
+/// Distance of each pixel to its region's generator (`sized`, as the final Voronoi step
+/// saw them), 0 (black) at the generator and 1 at the farthest labelled pixel: the thesis's
+/// Fig. 3.14 view.
+pub fn distance(labels: &Labels, sized: &[Ellipse], metric: MetricKind) -> Image {
+    let (w, h) = (labels.width, labels.height);
+    let domain = Domain { width: w, height: h, allowed: None, metric_map: None };
+    let d = distance_field(&domain, sized, labels, metric);
+    let max = d.iter().copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max).max(1e-12);
+    let mut img = Image::new(w, h, 1);
+    for (o, v) in img.data.iter_mut().zip(d) {
+        *o = if v.is_finite() { (v / max) as f32 } else { 1.0 };
+    }
+    img
 }
 
 #[cfg(test)]
