@@ -362,3 +362,27 @@ fn a_killed_build_leaves_no_temporary_behind() {
     let left: Vec<_> = tree(&p.path("out")).into_iter().map(|(f, _)| f).collect();
     assert_eq!(left.len(), 3, "{left:?}");
 }
+
+#[test]
+fn a_project_opened_from_another_directory_writes_into_that_project() {
+    // Was: `Project::open(dir)` made its root relative to `dir` even when the process ran
+    // elsewhere, so outputs and the cache landed in the process's own directory (the fuzz
+    // harness filled 32 GB of a campaign directory, and `cargo test` wrote `out/scene/`
+    // into the repository).
+    let p = Project::new(&[("scenes/s.tess", "map m { from = constant(0.5) }\noutput \"m.png\" { from = m }\n")]);
+    let here = std::env::current_dir().expect("cwd");
+    assert_ne!(here, p.dir.path());
+    let before = here.join("out/scenes/s/m.png").exists();
+    let project = tessera::project::Project::open(p.dir.path()).expect("open");
+    let mut project = project;
+    project.progress = false;
+    let built = project.build(&p.path("scenes/s.tess")).expect("build");
+    project.emit(&built).expect("emit");
+    assert!(
+        p.path("out/scenes/s/m.png").is_file(),
+        "the output is not in the project: {:?}",
+        common::tree(p.dir.path()).iter().map(|(f, _)| f.clone()).collect::<Vec<_>>()
+    );
+    assert!(p.path(".tessera/cache").is_dir(), "the cache is not in the project");
+    assert_eq!(here.join("out/scenes/s/m.png").exists(), before, "wrote into the process's directory");
+}

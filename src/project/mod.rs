@@ -88,7 +88,13 @@ impl Project {
     pub fn open(cwd: &Path) -> Result<Project, Failed> {
         let root = manifest::find_root(cwd).unwrap_or_else(|| cwd.to_path_buf());
         let manifest = manifest::load(&root)?;
-        let root = relative_to(&root, cwd);
+        // Paths are shown relative to where the command runs. A caller opening another
+        // directory than the process's own (the fuzz harness, an embedding tool) keeps the
+        // full path: relative to `cwd`, it would lead from the process's directory instead.
+        let root = match std::env::current_dir() {
+            Ok(here) if here == cwd => relative_to(&root, cwd),
+            _ => root,
+        };
         let cache = Cache::new(root.join(&manifest.paths.cache));
         let budget = manifest.limits.max_memory.map(Budget::new).unwrap_or_else(Budget::from_machine);
         let world = World::with_max_file(budget.max_file());
