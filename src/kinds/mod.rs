@@ -1,17 +1,16 @@
-//! Declarations → stages. One module per declaration kind: its schema (`SPEC`) and the
-//! code that turns a checked declaration into nodes of the stage graph. This is the only
-//! layer that knows both the language and the algorithms.
+//! Declarations → stages. One module per declaration kind, each a [`Kind`] listed in
+//! [`KINDS`]: its schema, what it produces, how a checked declaration becomes nodes of the
+//! stage graph, and its output views. This is the only layer that knows both the language
+//! and the algorithms.
 
 mod artifact;
 mod layer;
-
 mod library;
 mod map;
 mod output;
 mod sample;
 mod scene;
 mod structure;
-
 mod surface;
 
 use std::collections::HashMap;
