@@ -6,23 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use common::{parse_report, Project, Stage};
-use tessera::raster::{io, Image};
-
-fn texture(w: usize, h: usize, seed: u32) -> Image {
-    Image::from_fn(w, h, 3, |x, y, c| {
-        let (x, y) = (x as f32, y as f32);
-        let s = seed as f32;
-        let v = 0.5
-            + 0.25 * ((x * 0.31 + s).sin() * (y * 0.23 + 0.7 * s).cos())
-            + 0.15 * ((x * 0.07 - y * 0.11 + s * 1.3).sin());
-        (v + 0.05 * c as f32).clamp(0.0, 1.0)
-    })
-}
-
-fn png(img: &Image) -> Vec<u8> {
-    io::encode_png(img, 8).expect("encode")
-}
+use common::{parse_report, png, texture, Project, Stage};
 
 /// A library `tex/` of four textures and a target `q.png`.
 fn library() -> Project {

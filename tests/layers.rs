@@ -3,24 +3,8 @@
 
 mod common;
 
-use common::{ran, Project};
+use common::{png, ran, texture, Project};
 use tessera::raster::{io, Image};
-
-/// A small seeded RGB texture with enough structure to quilt.
-fn texture(w: usize, h: usize, seed: u32) -> Image {
-    Image::from_fn(w, h, 3, |x, y, c| {
-        let (x, y) = (x as f32, y as f32);
-        let s = seed as f32;
-        let v = 0.5
-            + 0.25 * ((x * 0.31 + s).sin() * (y * 0.23 + 0.7 * s).cos())
-            + 0.15 * ((x * 0.07 - y * 0.11 + s * 1.3).sin());
-        (v + 0.05 * c as f32).clamp(0.0, 1.0)
-    })
-}
-
-fn png(img: &Image) -> Vec<u8> {
-    io::encode_png(img, 8).expect("encode")
-}
 
 /// Builds `scene.tess` (plus files) expecting failure; snapshots and returns stderr.
 fn diagnose(name: &str, scene: &str, extra: &[(&str, Vec<u8>)]) -> String {

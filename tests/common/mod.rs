@@ -209,3 +209,20 @@ pub fn spawn_watch(p: &Project, scene: &str) -> (std::process::Child, std::sync:
     std::thread::spawn(move || BufReader::new(err).lines().map_while(Result::ok).for_each(|l| drop(tx2.send(l))));
     (child, rx)
 }
+
+/// A small seeded RGB texture with enough structure to quilt and to rank.
+pub fn texture(w: usize, h: usize, seed: u32) -> tessera::raster::Image {
+    tessera::raster::Image::from_fn(w, h, 3, |x, y, c| {
+        let (x, y) = (x as f32, y as f32);
+        let s = seed as f32;
+        let v = 0.5
+            + 0.25 * ((x * 0.31 + s).sin() * (y * 0.23 + 0.7 * s).cos())
+            + 0.15 * ((x * 0.07 - y * 0.11 + s * 1.3).sin());
+        (v + 0.05 * c as f32).clamp(0.0, 1.0)
+    })
+}
+
+/// An image as 8-bit PNG bytes.
+pub fn png(img: &tessera::raster::Image) -> Vec<u8> {
+    tessera::raster::io::encode_png(img, 8).expect("encode")
+}

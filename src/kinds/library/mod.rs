@@ -176,20 +176,66 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let budget = p.budget;
     for f in &files {
         let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let shown = name.clone();
-        let stage = FnStage::new("library.features", 1, key.clone(), move |cx| {
-            let img = decode_entry(&cx.file(0)?, &shown, budget)?;
-            lib::features(&img, &params).map_err(|e| StageError::new(format!("`{shown}`: {e}")).in_file(0))
-        });
+        let stage = features_stage(&key, params, name.clone(), budget);
         nodes.push(p.add(format!("library {} ({name})", d.name), stage, vec![], vec![(f.clone(), span)]));
         names.push(name);
     }
+    Ok(p.add(format!("library {}", d.name), index_stage(names), nodes, vec![]))
+}
+
+/// The `library.features` stage of one file, named `shown` in its errors. Scenes and
+/// `tessera similar` build it here alike, so they share cached features.
+fn features_stage(key: &str, params: FeatureParams, shown: String, budget: crate::graph::Budget) -> FnStage<Features> {
+    FnStage::new("library.features", 1, key.to_string(), move |cx| {
+        let img = decode_entry(&cx.file(0)?, &shown, budget)?;
+        lib::features(&img, &params).map_err(|e| StageError::new(format!("`{shown}`: {e}")).in_file(0))
+    })
+}
+
+/// The `library.index` stage gathering the entries' features (its inputs, in `names` order).
+fn index_stage(names: Vec<String>) -> FnStage<Index> {
     let key = serde_json::json!({ "names": names }).to_string();
-    let stage = FnStage::new("library.index", 1, key, move |cx| {
+    FnStage::new("library.index", 1, key, move |cx| {
         let features = (0..cx.input_count()).map(|i| (*cx.input::<Features>(i)).clone()).collect();
         Ok(Index { names: names.clone(), features })
-    });
-    Ok(p.add(format!("library {}", d.name), stage, nodes, vec![]))
+    })
+}
+
+/// The `library.query` stage ranking an index (input 0) against a target's features
+/// (input 1); a bad query is blamed on `blame` when a scene property set it.
+fn query_stage(
+    query: QueryParams,
+    (k, randomness, seed): (usize, f64, u64),
+    to: String,
+    blame: Option<&'static str>,
+) -> FnStage<Ranking> {
+    let key =
+        serde_json::json!({ "query": query, "k": k, "randomness": randomness, "seed": seed, "to": to }).to_string();
+    FnStage::new("library.query", 1, key, move |cx| {
+        let index = cx.input::<Index>(0);
+        let target = cx.input::<Features>(1);
+        let chosen = lib::query(&index.features, &target, &query, k, randomness, seed).map_err(|e| {
+            let e = StageError::new(e.to_string());
+            match blame {
+                Some(prop) => e.at_prop(prop),
+                None => e,
+            }
+        })?;
+        Ok(Ranking {
+            target: to.clone(),
+            axes: query.axes.iter().map(axis_name).collect(),
+            candidates: chosen
+                .into_iter()
+                .map(|r| Candidate {
+                    name: index.names[r.index].clone(),
+                    index: r.index,
+                    distance: r.distance,
+                    axes: r.axes,
+                    raw: r.raw,
+                })
+                .collect(),
+        })
+    })
 }
 
 /// A library file as the features see it: 8-bit-style encoded values (EXR is linear and
@@ -266,28 +312,7 @@ pub fn plan_similar(p: &mut Planner, d: &Decl, call: &Call) -> Result<(NodeId, V
         histogram: HistogramNorm::Fraction,
         exclude: None,
     };
-    let key =
-        serde_json::json!({ "query": query, "k": k, "randomness": randomness, "seed": seed, "to": to }).to_string();
-    let stage = FnStage::new("library.query", 1, key, move |cx| {
-        let index = cx.input::<Index>(0);
-        let target = cx.input::<Features>(1);
-        let chosen = lib::query(&index.features, &target, &query, k, randomness, seed)
-            .map_err(|e| StageError::new(e.to_string()).at_prop("from"))?;
-        Ok(Ranking {
-            target: to.clone(),
-            axes: query.axes.iter().map(axis_name).collect(),
-            candidates: chosen
-                .into_iter()
-                .map(|r| Candidate {
-                    name: index.names[r.index].clone(),
-                    index: r.index,
-                    distance: r.distance,
-                    axes: r.axes,
-                    raw: r.raw,
-                })
-                .collect(),
-        })
-    });
+    let stage = query_stage(query, (k, randomness, seed), to, Some("from"));
     let node = p.add(format!("sample {} (query)", d.name), stage, vec![p.result(&library), target], vec![]);
     Ok((node, files))
 }
@@ -379,11 +404,7 @@ pub fn plan_standalone(graph: &mut crate::graph::Graph, q: Standalone, budget: c
         FeatureParams { bins: q.bins, size: q.size, resample: true, luma: Luma::Mean, ..FeatureParams::default() };
     let key = serde_json::to_string(&params).expect("serialises");
     let features = |graph: &mut crate::graph::Graph, file: &PathBuf, label: String| {
-        let shown = file.display().to_string();
-        let stage = FnStage::new("library.features", 1, key.clone(), move |cx| {
-            let img = decode_entry(&cx.file(0)?, &shown, budget)?;
-            lib::features(&img, &params).map_err(|e| StageError::new(format!("`{shown}`: {e}")).in_file(0))
-        });
+        let stage = features_stage(&key, params, file.display().to_string(), budget);
         graph.add(crate::graph::Node {
             label,
             stage: Box::new(stage),
@@ -400,11 +421,7 @@ pub fn plan_standalone(graph: &mut crate::graph::Graph, q: Standalone, budget: c
         Some(i) => nodes[i],
         None => features(graph, &q.target, format!("target {}", q.target.display())),
     };
-    let key = serde_json::json!({ "names": names }).to_string();
-    let stage = FnStage::new("library.index", 1, key, move |cx| {
-        let features = (0..cx.input_count()).map(|i| (*cx.input::<Features>(i)).clone()).collect();
-        Ok(Index { names: names.clone(), features })
-    });
+    let stage = index_stage(names);
     let index = graph.add(crate::graph::Node {
         label: "library".into(),
         stage: Box::new(stage),
@@ -413,29 +430,7 @@ pub fn plan_standalone(graph: &mut crate::graph::Graph, q: Standalone, budget: c
         origin: 0,
     });
     let query = QueryParams { axes: q.axes, normalise: q.normalise, histogram: HistogramNorm::Fraction, exclude: None };
-    let (k, randomness, seed, to) = (q.k, q.randomness, q.seed, q.target.display().to_string());
-    let key =
-        serde_json::json!({ "query": query, "k": k, "randomness": randomness, "seed": seed, "to": to }).to_string();
-    let stage = FnStage::new("library.query", 1, key, move |cx| {
-        let index = cx.input::<Index>(0);
-        let target = cx.input::<Features>(1);
-        let chosen = lib::query(&index.features, &target, &query, k, randomness, seed)
-            .map_err(|e| StageError::new(e.to_string()))?;
-        Ok(Ranking {
-            target: to.clone(),
-            axes: query.axes.iter().map(axis_name).collect(),
-            candidates: chosen
-                .into_iter()
-                .map(|r| Candidate {
-                    name: index.names[r.index].clone(),
-                    index: r.index,
-                    distance: r.distance,
-                    axes: r.axes,
-                    raw: r.raw,
-                })
-                .collect(),
-        })
-    });
+    let stage = query_stage(query, (q.k, q.randomness, q.seed), q.target.display().to_string(), None);
     graph.add(crate::graph::Node {
         label: "similar (query)".into(),
         stage: Box::new(stage),
