@@ -12,6 +12,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::budget::Budget;
 use super::cache::{Cache, Lookup};
 use super::key::{Key, KeyBuilder};
 use super::progress::Progress;
@@ -94,12 +95,21 @@ pub struct Executor<'a> {
     pub cache: &'a Cache,
     pub memory: Option<&'a MemoryCache>,
     pub progress: bool,
+    /// Handed to stages through [`RunCx::budget`]; no part of any key.
+    pub budget: Budget,
 }
 
 pub struct Outcome {
     pub values: HashMap<NodeId, Artifact>,
     pub keys: HashMap<NodeId, Key>,
     pub report: Report,
+}
+
+impl Outcome {
+    /// The value of a node the run computed or loaded, as its handle's type.
+    pub fn get<T: std::any::Any + Send + Sync>(&self, h: super::stage::Handle<T>) -> Option<std::sync::Arc<T>> {
+        self.values.get(&h.node()).and_then(|v| v.clone().downcast::<T>().ok())
+    }
 }
 
 impl Executor<'_> {
@@ -294,6 +304,7 @@ impl Executor<'_> {
             inputs: node.inputs.iter().map(|i| values[i].clone()).collect(),
             files: &node.files,
             world: self.world,
+            budget: self.budget,
             progress: &progress,
             warnings: Default::default(),
         };

@@ -15,5 +15,5 @@ pub use cache::Cache;
 pub use exec::{Executor, Failure, MemoryCache, Outcome, Report, StageRecord, Status};
 pub use files::write_atomic;
 pub use key::Key;
-pub use stage::{Artifact, Graph, Node, NodeId, RunCx, Stage, StageError};
+pub use stage::{AnyHandle, Artifact, Graph, Handle, In, Inputs, Node, NodeId, RunCx, Stage, StageError, Typed};
 pub use world::World;

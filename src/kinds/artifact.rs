@@ -1,9 +1,10 @@
-//! Artifact types and their cache encodings, and a stage built from a closure.
+//! Artifact types and their cache encodings, and the stage every kind builds: a plain
+//! function of one keyed value.
 
 use std::any::Any;
 use std::sync::Arc;
 
-use crate::graph::{Artifact, RunCx, Stage, StageError};
+use crate::graph::{Artifact, RunCx, Stage, StageError, Typed};
 use crate::raster::{self, Image};
 use crate::synth::surface::Plane;
 
@@ -49,7 +50,7 @@ impl Encoded for Plane {
 
 type RunFn<T> = dyn Fn(&RunCx) -> Result<T, StageError> + Send + Sync;
 
-/// A stage whose work is a closure over its (already canonicalised) parameters.
+/// A stage whose key is the canonical serialisation of exactly the value its work receives.
 pub struct FnStage<T: Encoded> {
     kind: &'static str,
     version: u32,
@@ -58,9 +59,12 @@ pub struct FnStage<T: Encoded> {
 }
 
 impl<T: Encoded> FnStage<T> {
-    /// A stage whose key is the canonical serialisation of exactly the value its work
-    /// receives: `run` is a plain function (a closure capturing nothing), so nothing can reach
-    /// it that the key does not hold, and there is no second list of parameters to drift.
+    /// The stage `kind` (code `version`) computing `run(cx, &input)`. `run` is a plain
+    /// function (a closure capturing nothing), so nothing can reach the work that the key
+    /// does not hold, and there is no second list of parameters to drift from it. `input`
+    /// holds the stage's [`In`](crate::graph::In) handles too, so the key holds its wiring;
+    /// what decides only whether a result is computed (the memory budget) comes from
+    /// [`RunCx::budget`], never from `input`.
     pub fn keyed<P>(kind: &'static str, version: u32, input: P, run: fn(&RunCx, &P) -> Result<T, StageError>) -> Self
     where
         P: serde::Serialize + Send + Sync + 'static,
@@ -68,17 +72,10 @@ impl<T: Encoded> FnStage<T> {
         let params = serde_json::to_string(&input).expect("stage parameters serialise");
         FnStage { kind, version, params, run: Box::new(move |cx| run(cx, &input)) }
     }
+}
 
-    /// A stage keyed by `params`, which must describe everything `run` captures. Prefer
-    /// [`FnStage::keyed`], which makes that so by construction.
-    pub fn new(
-        kind: &'static str,
-        version: u32,
-        params: String,
-        run: impl Fn(&RunCx) -> Result<T, StageError> + Send + Sync + 'static,
-    ) -> Self {
-        FnStage { kind, version, params, run: Box::new(run) }
-    }
+impl<T: Encoded> Typed for FnStage<T> {
+    type Output = T;
 }
 
 impl<T: Encoded> Stage for FnStage<T> {

@@ -13,14 +13,15 @@ mod scene;
 mod structure;
 mod surface;
 
+use std::any::Any;
 use std::collections::HashMap;
 use std::path::PathBuf;
 
 pub use artifact::{Bytes, Encoded, FnStage};
 pub use library::{axis_name, entries as library_entries, plan_standalone, Ranking, Standalone};
-pub use output::{OutputFormat, PlannedOutput};
+pub use output::{OutputFormat, PlannedOutput, View, VIEWS};
 
-use crate::graph::{Budget, Graph, Node, NodeId, Stage};
+use crate::graph::{AnyHandle, Budget, Graph, Handle, Inputs};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic, KindSpec, Scene};
 
@@ -33,7 +34,7 @@ pub trait Kind: Sync {
 
     /// Plans a checked declaration into stages; the node holding its result, if it has one.
     /// Planning runs in dependency order, so what the declaration refers to is planned.
-    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic>;
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<AnyHandle>, Diagnostic>;
 
     /// Plans `output` of a declaration of this kind when the kind has views of its own
     /// (a structure's labels, a layer's seams, a sample's ranking); `None` leaves it to
@@ -78,8 +79,8 @@ pub struct OutputRequest<'a> {
     /// The declaration it writes.
     pub from: &'a str,
     pub format: OutputFormat,
-    /// The `view` property as written (`auto` when absent).
-    pub view: &'a str,
+    /// The `view` property (`auto` when absent).
+    pub view: View,
     /// The output file's extension, lower-case.
     pub ext: &'a str,
 }
@@ -87,7 +88,7 @@ pub struct OutputRequest<'a> {
 /// A planned view: the node producing the file's bytes, and whether its values are
 /// identities compared exactly by the golden check.
 pub struct ViewNode {
-    pub node: NodeId,
+    pub node: Handle<Bytes>,
     pub exact: bool,
 }
 
@@ -168,46 +169,49 @@ pub struct Planner<'a> {
     graph: Graph,
     blame: Vec<Blame>,
     /// The node holding each declaration's result.
-    results: HashMap<String, NodeId>,
+    results: HashMap<String, AnyHandle>,
     /// Further named nodes of multi-stage declarations: (declaration, part) → node.
-    parts: HashMap<(String, &'static str), NodeId>,
+    parts: HashMap<(String, &'static str), AnyHandle>,
     exports: HashMap<String, Exports>,
     outputs: Vec<PlannedOutput>,
     decl_index: usize,
 }
 
 impl Planner<'_> {
-    pub fn add(
+    /// Adds a stage of the declaration being planned, reading `inputs` and `files` (each
+    /// with the span of the string that named it); the handle of its artifact.
+    pub fn add<T: Encoded>(
         &mut self,
         label: String,
-        stage: impl Stage + 'static,
-        inputs: Vec<NodeId>,
+        stage: FnStage<T>,
+        inputs: Inputs,
         files: Vec<(PathBuf, Span)>,
-    ) -> NodeId {
+    ) -> Handle<T> {
         let decl = &self.scene.decls[self.decl_index];
         let (files, spans): (Vec<PathBuf>, Vec<Span>) = files.into_iter().unzip();
         self.blame.push(Blame { decl: self.decl_index, span: decl.name_span, files: spans });
-        self.graph.add(Node { label, stage: Box::new(stage), inputs, files, origin: self.decl_index })
+        self.graph.add_typed(label, stage, inputs, files, self.decl_index)
     }
 
-    /// A named part of a multi-stage declaration (e.g. a structure's `lloyd` result).
-    pub fn part(&self, name: &str, part: &'static str) -> Option<NodeId> {
-        self.parts.get(&(name.to_string(), part)).copied()
+    /// Records a named part of the multi-stage declaration `d` (a structure's `lloyd`).
+    pub fn set_part<T: Any>(&mut self, d: &Decl, part: &'static str, h: Handle<T>) {
+        self.parts.insert((d.name.clone(), part), h.erase());
     }
 
-    /// The node added last.
-    pub fn last(&self) -> NodeId {
-        self.graph.nodes.len() - 1
+    /// A named part of a multi-stage declaration planned earlier.
+    pub fn part<T: Any>(&self, name: &str, part: &'static str) -> Option<Handle<T>> {
+        self.parts.get(&(name.to_string(), part)).map(|h| typed(*h, name))
     }
 
-    /// The node holding the result of the declaration `name` (planned earlier).
-    pub fn result(&self, name: &str) -> NodeId {
-        self.results[name]
+    /// The node holding the result of the declaration `name` (planned earlier), which its
+    /// kind makes a `T`.
+    pub fn result<T: Any>(&self, name: &str) -> Handle<T> {
+        typed(self.results[name], name)
     }
 
     /// The result of `name` where a value (an image, a map, a plane) is needed, `at` the
     /// span that named it; its kind may refuse (see [`Kind::refuse_value`]).
-    pub fn value(&self, name: &str, at: Span) -> Result<NodeId, Diagnostic> {
+    pub fn value<T: Any>(&self, name: &str, at: Span) -> Result<Handle<T>, Diagnostic> {
         let d = self.decl(name);
         if let Some(refusal) = kind(d.kind).refuse_value(d, at) {
             return Err(refusal);
@@ -266,6 +270,14 @@ impl Planner<'_> {
     pub fn seed(&self, decl: &Decl, stream: &str) -> u64 {
         crate::synth::rng::derive_seed(self.scene.seed, &decl.name, stream)
     }
+}
+
+/// `h` as a `T`: a declaration's kind and the kinds reading it agree on what it makes, so a
+/// mismatch is a planner bug, found by planning any scene that wires the two.
+fn typed<T: Any>(h: AnyHandle, name: &str) -> Handle<T> {
+    h.typed().unwrap_or_else(|| {
+        panic!("`{name}` makes a {}, not a {} (a planner bug)", h.type_name(), std::any::type_name::<T>())
+    })
 }
 
 /// Peak bytes per decoded sample: the decoder's own buffer (up to 16 bits), the planar f32

@@ -36,7 +36,7 @@ impl super::Kind for Scene {
         &self,
         _p: &mut super::Planner,
         _d: &crate::lang::Decl,
-    ) -> Result<Option<crate::graph::NodeId>, crate::lang::Diagnostic> {
+    ) -> Result<Option<crate::graph::AnyHandle>, crate::lang::Diagnostic> {
         Ok(None)
     }
 }

@@ -1,7 +1,7 @@
 //! `surface`: the target a layer is synthesised on.
 
 use super::{FnStage, Planner};
-use crate::graph::{NodeId, RunCx, StageError};
+use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Value};
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::Image;
@@ -25,31 +25,30 @@ pub static SPEC: KindSpec = KindSpec {
     ],
 };
 
-pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Plane>, Diagnostic> {
     let (w, h) = d.props.size("plane");
     let (w, h) = (w as usize, h as usize);
     // The occupancy plane (f32), and the copy the stage makes of its map.
     p.check_pixels(d, d.props.span("plane"), (w, h), 8.0)?;
-    let mut inputs = Vec::new();
-    if let Some(m) = d.props.reference("occupancy") {
-        inputs.push(p.result(m));
-    }
-    let stage = FnStage::keyed("surface.plane", 2, PlaneSize { w, h }, plane);
+    let mut inputs = Inputs::new();
+    let occupancy = d.props.reference("occupancy").map(|m| inputs.add(p.result::<Image>(m)));
+    let stage = FnStage::keyed("surface.plane", 3, PlaneOf { w, h, occupancy }, plane);
     Ok(p.add(format!("surface {}", d.name), stage, inputs, Vec::new()))
 }
 
-/// What the plane stage works from besides its occupancy map (if any).
+/// What the plane stage works from: its size and occupancy map (if any).
 #[derive(serde::Serialize)]
-struct PlaneSize {
+struct PlaneOf {
     w: usize,
     h: usize,
+    occupancy: Option<In<Image>>,
 }
 
-fn plane(cx: &RunCx, &PlaneSize { w, h }: &PlaneSize) -> Result<Plane, StageError> {
-    if cx.input_count() == 0 {
+fn plane(cx: &RunCx, &PlaneOf { w, h, occupancy }: &PlaneOf) -> Result<Plane, StageError> {
+    let Some(occupancy) = occupancy else {
         return Ok(Plane::full(w, h));
-    }
-    let occ = cx.input::<Image>(0);
+    };
+    let occ = cx.get(occupancy);
     if occ.width != w || occ.height != h {
         return Err(StageError::new(format!(
             "the occupancy map is {}x{} but the plane is {w}x{h}",
@@ -72,10 +71,10 @@ impl super::Kind for Surface {
         &SPEC
     }
 
-    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<AnyHandle>, Diagnostic> {
         let node = plan(p, d)?;
         let (w, h) = d.props.size("plane");
         p.export(d).plane = Some(((w as usize, h as usize), d.props.span("plane")));
-        Ok(Some(node))
+        Ok(Some(node.erase()))
     }
 }

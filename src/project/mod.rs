@@ -152,7 +152,13 @@ impl Project {
     }
 
     fn executor(&self) -> Executor<'_> {
-        Executor { world: &self.world, cache: &self.cache, memory: self.memory.as_ref(), progress: self.progress }
+        Executor {
+            world: &self.world,
+            cache: &self.cache,
+            memory: self.memory.as_ref(),
+            progress: self.progress,
+            budget: self.budget,
+        }
     }
 
     /// Builds a scene's outputs (in memory; `emit` writes them).

@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use super::Project;
 use crate::graph::{Graph, Report};
-use crate::kinds::{self, Ranking, Standalone};
+use crate::kinds::{self, Standalone};
 use crate::raster::{self, Image};
 use crate::synth::library::{Axis, FourierMode, Normalise};
 use crate::synth::metrics;
@@ -99,18 +99,17 @@ pub fn similar(p: &Project, dir: &Path, target: &Path, o: &SimilarOptions) -> Re
             randomness: o.randomness,
             seed: o.seed,
         },
-        p.budget,
     );
     // With every axis off the command has always read every file first, so an unreadable
     // one is still the error it reports.
-    let targets = if compares_nothing { graph.nodes[query].inputs.clone() } else { vec![query] };
+    let targets = if compares_nothing { graph.nodes[query.node()].inputs.clone() } else { vec![query.node()] };
     let start = Instant::now();
     let outcome = p.executor().run(&graph, &targets).map_err(|(f, _)| f.error.message)?;
     let millis = start.elapsed().as_secs_f64() * 1000.0;
     if compares_nothing {
         return Err("every axis is off: enable colour, fourier or orientation".into());
     }
-    let ranking = outcome.values[&query].clone().downcast::<Ranking>().expect("a query yields a ranking");
+    let ranking = outcome.get(query).expect("the query ran");
     let width = names.iter().map(|n| n.len()).max().unwrap_or(5).max(5);
     let mut out = format!("{:<4}  {:<width$}  {:>8}", "rank", "entry", "distance");
     for a in &ranking.axes {

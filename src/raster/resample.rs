@@ -13,7 +13,8 @@ use rayon::prelude::*;
 use super::{Image, RasterError};
 
 /// Reconstruction filter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Filter {
     /// The pixel containing the point; never blends values, so it is the one to use for
     /// label or index maps.

@@ -11,9 +11,9 @@
 //! to what follows it (seam removal, an output view) never re-runs the search; a blend's
 //! mask threshold is a blend parameter, so editing it re-runs only the blend onward.
 
-use super::output::encode_image;
-use super::{Encoded, FnStage, OutputFormat, Planner};
-use crate::graph::{NodeId, RunCx, StageError};
+use super::output::{encode_image, View, VIEWS};
+use super::{Bytes, Encoded, FnStage, OutputFormat, Planner};
+use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::{self, Image};
@@ -27,18 +27,19 @@ use crate::synth::surface::Plane;
 mod spec;
 pub use spec::SPEC;
 
-/// Which optional inputs a quilt stage has, in the order they are wired.
-#[derive(Clone, Copy, Default)]
+/// The inputs of a quilt stage: the sample, and those the declaration names.
+#[derive(Clone, Copy, serde::Serialize)]
 struct Wiring {
-    mix: Option<usize>,
-    surface: Option<usize>,
-    orientation: Option<usize>,
-    density: Option<usize>,
-    guide: Option<usize>,
-    guide_weight: Option<usize>,
+    sample: In<Image>,
+    mix: Option<In<Image>>,
+    surface: Option<In<Plane>>,
+    orientation: Option<In<Image>>,
+    density: Option<In<Image>>,
+    guide: Option<In<Image>>,
+    guide_weight: Option<In<Image>>,
 }
 
-pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
     let props = &d.props;
     match (props.reference("quilt"), props.get("blend")) {
         (Some(sample), None) => plan_quilt(p, d, sample),
@@ -76,8 +77,8 @@ impl super::Kind for Layer {
         &SPEC
     }
 
-    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
-        let node = plan(p, d)?;
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<AnyHandle>, Diagnostic> {
+        let node = plan(p, d)?.erase();
         // A layer's values are in the colour space of the image it grows from (blends:
         // their first source's).
         let source = match d.props.reference("quilt") {
@@ -90,23 +91,23 @@ impl super::Kind for Layer {
 
     fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
         let view = out.view;
-        if view == "auto" {
+        if view == View::Auto {
             return Ok(None);
         }
         let d = out.decl;
-        if !matches!(view, "seams" | "index") || out.format.is_text() {
-            return Err(Diagnostic::error(format!("a layer has no `{view}` view as `.{}`", out.ext))
+        if !matches!(view, View::Seams | View::Index) || out.format.is_text() {
+            return Err(Diagnostic::error(format!("a layer has no `{}` view as `.{}`", VIEWS.name(view), out.ext))
                 .with_code("tessera::output_view")
                 .with_label(d.props.span("view").unwrap_or(d.name_span), "here")
                 .with_help("layers are images; their views are `seams` and `index`"));
         }
         let node = plan_output(p, d, out.from, out.format, view)?;
         // Source positions are identities: a pixel taken from elsewhere is a regression.
-        Ok(Some(super::ViewNode { node, exact: view == "index" }))
+        Ok(Some(super::ViewNode { node, exact: view == View::Index }))
     }
 }
 
-fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnostic> {
+fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<Handle<Image>, Diagnostic> {
     let props = &d.props;
     let ((w, h), size_at) = quilt_size(p, d);
     p.check_pixels(d, size_at, (w, h), QUILT_BYTES_PER_PIXEL)?;
@@ -130,30 +131,16 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnos
             .with_label(props.span(have).unwrap_or(d.name_span), "here")
             .with_help("`mix = SAMPLE` names the second sample and `density = MAP` how much of it to take"));
     }
-    let mut inputs = vec![p.value(sample, props.span("quilt").unwrap_or(d.name_span))?];
-    let mut wiring = Wiring::default();
-    let wire = |slot: &mut Option<usize>, node: NodeId, inputs: &mut Vec<NodeId>| {
-        *slot = Some(inputs.len());
-        inputs.push(node);
+    let mut inputs = Inputs::new();
+    let wiring = Wiring {
+        sample: wire(p, d, &mut inputs, "quilt")?.expect("a quilted layer names its sample"),
+        mix: wire(p, d, &mut inputs, "mix")?,
+        surface: wire(p, d, &mut inputs, "on")?,
+        orientation: wire(p, d, &mut inputs, "orientation")?,
+        density: wire(p, d, &mut inputs, "density")?,
+        guide: wire(p, d, &mut inputs, "guide")?,
+        guide_weight: wire(p, d, &mut inputs, "guide_weight")?,
     };
-    if let Some(s) = props.reference("mix") {
-        wire(&mut wiring.mix, p.value(s, props.span("mix").unwrap_or(d.name_span))?, &mut inputs);
-    }
-    if let Some(s) = props.reference("on") {
-        wire(&mut wiring.surface, p.value(s, props.span("on").unwrap_or(d.name_span))?, &mut inputs);
-    }
-    if let Some(s) = props.reference("orientation") {
-        wire(&mut wiring.orientation, p.value(s, props.span("orientation").unwrap_or(d.name_span))?, &mut inputs);
-    }
-    if let Some(s) = props.reference("density") {
-        wire(&mut wiring.density, p.value(s, props.span("density").unwrap_or(d.name_span))?, &mut inputs);
-    }
-    if let Some(s) = props.reference("guide") {
-        wire(&mut wiring.guide, p.value(s, props.span("guide").unwrap_or(d.name_span))?, &mut inputs);
-    }
-    if let Some(s) = props.reference("guide_weight") {
-        wire(&mut wiring.guide_weight, p.value(s, props.span("guide_weight").unwrap_or(d.name_span))?, &mut inputs);
-    }
     let mut params = QuiltParams::new(w, h, block, p.seed(d, "layer.quilt"));
     params.overlap = overlap;
     params.tolerance = props.num("tolerance") as f32;
@@ -167,57 +154,73 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<NodeId, Diagnos
     };
     params.candidate_stride = props.int("stride") as usize;
     params.tileable = props.bool("tileable");
-    let copies = props.int("copies") as usize;
-    let alpha = props.num("alpha") as f32;
-    let key = serde_json::json!({ "params": params, "copies": copies, "alpha": alpha, "wired": [
-        wiring.mix.is_some(), wiring.surface.is_some(), wiring.orientation.is_some(),
-        wiring.density.is_some(), wiring.guide.is_some(), wiring.guide_weight.is_some()] })
-    .to_string();
-    let stage = FnStage::new("layer.quilt", 1, key, move |cx| run_quilt(cx, &params, wiring, copies, alpha));
+    let quilting = Quilting { params, copies: props.int("copies") as usize, alpha: props.num("alpha") as f32, wiring };
+    let stage = FnStage::keyed("layer.quilt", 2, quilting, run_quilt);
     let quilt_node = p.add(format!("layer {} (quilt)", d.name), stage, inputs, vec![]);
-    p.parts.insert((d.name.clone(), "quilt"), quilt_node);
+    p.set_part(d, "quilt", quilt_node);
 
+    let mut inputs = Inputs::new();
+    let quilted = inputs.add(quilt_node);
     if spec::SEAMS.get(props.enumeration("seams")) == spec::SeamRemoval::Gradient {
-        let radius = props.pixels("seam_band");
-        let solver = solver_of(d);
-        let key = serde_json::json!({ "radius": radius, "solver": solver }).to_string();
-        let mut inputs = vec![quilt_node, p.result(sample)];
+        let mut samples = vec![inputs.add(p.result::<Image>(sample))];
         if let Some(s) = props.reference("mix") {
-            inputs.push(p.result(s));
+            samples.push(inputs.add(p.result::<Image>(s)));
         }
-        let stage = FnStage::new("layer.seams", 2, key, move |cx| {
-            let result = cx.input::<QuiltResult>(0);
-            let samples: Vec<std::sync::Arc<Image>> = (1..cx.input_count()).map(|i| cx.input::<Image>(i)).collect();
-            let refs: Vec<&Image> = samples.iter().map(|s| &**s).collect();
-            let params = quilt::SeamParams { radius, solver, ..quilt::SeamParams::default() };
-            let out = quilt::remove_seams(&result, &refs, &params)
-                .map_err(|e| StageError::new(e.to_string()).at_prop("seams"))?;
-            warn_unconverged(cx, &out.reports);
-            Ok(out.image)
-        });
+        let removal = SeamRemoval { quilted, samples, radius: props.pixels("seam_band"), solver: solver_of(d) };
+        let stage = FnStage::keyed("layer.seams", 3, removal, remove_seams);
         return Ok(p.add(format!("layer {} (seams)", d.name), stage, inputs, vec![]));
     }
-    let stage = FnStage::new("layer.image", 1, String::new(), |cx| Ok(cx.input::<QuiltResult>(0).image.clone()));
-    Ok(p.add(format!("layer {}", d.name), stage, vec![quilt_node], vec![]))
+    let stage = FnStage::keyed("layer.image", 2, quilted, |cx, &quilted| Ok(cx.get(quilted).image.clone()));
+    Ok(p.add(format!("layer {}", d.name), stage, inputs, vec![]))
 }
 
-fn run_quilt(
-    cx: &RunCx,
-    params: &QuiltParams,
-    wiring: Wiring,
+/// The value of the reference property `name` of `d`, if it has one, as an input.
+fn wire<T: std::any::Any>(p: &Planner, d: &Decl, inputs: &mut Inputs, name: &str) -> Result<Option<In<T>>, Diagnostic> {
+    let Some(s) = d.props.reference(name) else { return Ok(None) };
+    Ok(Some(inputs.add(p.value(s, d.props.span(name).unwrap_or(d.name_span))?)))
+}
+
+/// What gradient-domain seam removal works from: the quilting result and its samples.
+#[derive(serde::Serialize)]
+struct SeamRemoval {
+    quilted: In<QuiltResult>,
+    samples: Vec<In<Image>>,
+    radius: usize,
+    solver: blend::Solver,
+}
+
+fn remove_seams(cx: &RunCx, s: &SeamRemoval) -> Result<Image, StageError> {
+    let result = cx.get(s.quilted);
+    let samples: Vec<std::sync::Arc<Image>> = s.samples.iter().map(|&i| cx.get(i)).collect();
+    let refs: Vec<&Image> = samples.iter().map(|s| &**s).collect();
+    let params = quilt::SeamParams { radius: s.radius, solver: s.solver, ..quilt::SeamParams::default() };
+    let out =
+        quilt::remove_seams(&result, &refs, &params).map_err(|e| StageError::new(e.to_string()).at_prop("seams"))?;
+    warn_unconverged(cx, &out.reports);
+    Ok(out.image)
+}
+
+/// What the quilt stage works from.
+#[derive(serde::Serialize)]
+struct Quilting {
+    params: QuiltParams,
     copies: usize,
     alpha: f32,
-) -> Result<QuiltResult, StageError> {
+    wiring: Wiring,
+}
+
+fn run_quilt(cx: &RunCx, q: &Quilting) -> Result<QuiltResult, StageError> {
+    let (params, wiring, copies, alpha) = (&q.params, q.wiring, q.copies, q.alpha);
     let (w, h) = (params.width, params.height);
-    let sample = cx.input::<Image>(0);
-    let mix = wiring.mix.map(|i| cx.input::<Image>(i));
-    let plane = wiring.surface.map(|i| cx.input::<Plane>(i));
-    let map = |slot: Option<usize>,
+    let sample = cx.get(wiring.sample);
+    let mix = wiring.mix.map(|i| cx.get(i));
+    let plane = wiring.surface.map(|i| cx.get(i));
+    let map = |slot: Option<In<Image>>,
                prop: &'static str,
                channels: &[usize]|
      -> Result<Option<std::sync::Arc<Image>>, StageError> {
         let Some(i) = slot else { return Ok(None) };
-        let img = cx.input::<Image>(i);
+        let img = cx.get(i);
         exact_size(&img, w, h, prop)?;
         if !channels.contains(&img.channels) {
             return Err(StageError::new(format!(
@@ -343,7 +346,7 @@ fn warn_unconverged(cx: &RunCx, reports: &[blend::SolveReport]) {
     }
 }
 
-fn plan_blend(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+fn plan_blend(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
     let props = &d.props;
     let sources = props.refs("blend").to_vec();
     let span = props.span("blend").unwrap_or(d.name_span);
@@ -370,11 +373,10 @@ fn plan_blend(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             .with_help("with more sources the mask value v picks source round(v·(n − 1))"));
     }
     let at = props.span("blend").unwrap_or(d.name_span);
-    let mut inputs: Vec<NodeId> = sources.iter().map(|s| p.value(s, at)).collect::<Result<_, _>>()?;
-    let has_mask = props.reference("mask").is_some();
-    if let Some(mk) = props.reference("mask") {
-        inputs.push(p.result(mk));
-    }
+    let mut inputs = Inputs::new();
+    let sources: Vec<In<Image>> =
+        sources.iter().map(|s| Ok(inputs.add(p.value(s, at)?))).collect::<Result<_, Diagnostic>>()?;
+    let mask = props.reference("mask").map(|mk| inputs.add(p.result::<Image>(mk)));
     let params = BlendParams {
         mode,
         topology: spec::TOPOLOGIES.get(props.enumeration("topology")),
@@ -387,51 +389,61 @@ fn plan_blend(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         solver: solver_of(d),
         ..BlendParams::default()
     };
-    let threshold = props.opt_num("threshold").map(|t| t as f32);
-    let n = sources.len();
-    let key = serde_json::json!({ "params": params, "threshold": threshold, "n": n, "mask": has_mask }).to_string();
-    let stage = FnStage::new("layer.blend", 2, key, move |cx| {
-        let images: Vec<std::sync::Arc<Image>> = (0..n).map(|i| cx.input::<Image>(i)).collect();
-        let refs: Vec<&Image> = images.iter().map(|s| &**s).collect();
-        if n == 1 {
-            return Ok(refs[0].clone());
-        }
-        let mask = cx.input::<Image>(n);
-        let (w, h) = (refs[0].width, refs[0].height);
-        for (i, s) in refs.iter().enumerate().skip(1) {
-            if s.width != w || s.height != h {
-                return Err(StageError::new(format!(
-                    "source {} is {}x{} but the first is {w}x{h}; blended layers must have one size",
-                    i + 1,
-                    s.width,
-                    s.height
-                ))
-                .at_prop("blend"));
-            }
-        }
-        exact_size(&mask, w, h, "mask")?;
-        if mask.channels == 2 {
-            return Err(StageError::new("the mask must be scalar, not an orientation field").at_prop("mask"));
-        }
-        let result = if n == 2 {
-            match threshold {
-                Some(t) => {
-                    let binary = m::threshold(&mask, t);
-                    blend::blend(&refs, Selector::Binary(&binary), &params)
-                }
-                None => blend::blend(&refs, Selector::Soft(&mask), &params),
-            }
-        } else {
-            let top = (n - 1) as f32;
-            let labels: Vec<u32> =
-                mask.plane(0).iter().map(|&v| (v.clamp(0.0, 1.0) * top).round() as u32).collect::<Vec<_>>();
-            blend::blend(&refs, Selector::Labels(&labels), &params)
-        }
-        .map_err(blend_error)?;
-        warn_unconverged(cx, &result.reports);
-        Ok(result.image)
-    });
+    let blending = Blending { sources, mask, params, threshold: props.opt_num("threshold").map(|t| t as f32) };
+    let stage = FnStage::keyed("layer.blend", 3, blending, run_blend);
     Ok(p.add(format!("layer {} (blend)", d.name), stage, inputs, vec![]))
+}
+
+/// What a blend works from: its sources (in order), the mask, and the blend's parameters.
+#[derive(serde::Serialize)]
+struct Blending {
+    sources: Vec<In<Image>>,
+    mask: Option<In<Image>>,
+    params: BlendParams,
+    threshold: Option<f32>,
+}
+
+fn run_blend(cx: &RunCx, b: &Blending) -> Result<Image, StageError> {
+    let (params, threshold, n) = (&b.params, b.threshold, b.sources.len());
+    let images: Vec<std::sync::Arc<Image>> = b.sources.iter().map(|&i| cx.get(i)).collect();
+    let refs: Vec<&Image> = images.iter().map(|s| &**s).collect();
+    let Some(mask) = b.mask.filter(|_| n > 1) else {
+        return Ok(refs[0].clone());
+    };
+    let mask = cx.get(mask);
+    let (w, h) = (refs[0].width, refs[0].height);
+    for (i, s) in refs.iter().enumerate().skip(1) {
+        if s.width != w || s.height != h {
+            return Err(StageError::new(format!(
+                "source {} is {}x{} but the first is {w}x{h}; blended layers must have one size",
+                i + 1,
+                s.width,
+                s.height
+            ))
+            .at_prop("blend"));
+        }
+    }
+    exact_size(&mask, w, h, "mask")?;
+    if mask.channels == 2 {
+        return Err(StageError::new("the mask must be scalar, not an orientation field").at_prop("mask"));
+    }
+    let result = if n == 2 {
+        match threshold {
+            Some(t) => {
+                let binary = m::threshold(&mask, t);
+                blend::blend(&refs, Selector::Binary(&binary), params)
+            }
+            None => blend::blend(&refs, Selector::Soft(&mask), params),
+        }
+    } else {
+        let top = (n - 1) as f32;
+        let labels: Vec<u32> =
+            mask.plane(0).iter().map(|&v| (v.clamp(0.0, 1.0) * top).round() as u32).collect::<Vec<_>>();
+        blend::blend(&refs, Selector::Labels(&labels), params)
+    }
+    .map_err(blend_error)?;
+    warn_unconverged(cx, &result.reports);
+    Ok(result.image)
 }
 
 fn blend_error(e: BlendError) -> StageError {
@@ -453,38 +465,51 @@ pub fn plan_output(
     d: &Decl,
     from: &str,
     format: OutputFormat,
-    view: &str,
-) -> Result<NodeId, Diagnostic> {
+    view: View,
+) -> Result<Handle<Bytes>, Diagnostic> {
     let Some(quilt_node) = p.part(from, "quilt") else {
-        return Err(Diagnostic::error(format!("view `{view}` shows how a layer was quilted; `{from}` is a blend"))
-            .with_code("tessera::output_view")
-            .with_label(d.props.span("view").unwrap_or(d.name_span), "here"));
+        return Err(Diagnostic::error(format!(
+            "view `{}` shows how a layer was quilted; `{from}` is a blend",
+            VIEWS.name(view)
+        ))
+        .with_code("tessera::output_view")
+        .with_label(d.props.span("view").unwrap_or(d.name_span), "here"));
     };
-    let view = view.to_string();
-    let params = serde_json::json!({ "view": view, "format": format!("{format:?}") }).to_string();
-    let stage = FnStage::new("output.layer", 1, params, move |cx| {
-        let r = cx.input::<QuiltResult>(0);
-        let img = match view.as_str() {
-            "seams" => r.seams.clone(),
-            // Where each pixel came from: x → red, y → green, source → blue.
-            _ => {
-                let sources = r.sources.len().max(1) as f32;
-                Image::from_fn(r.index.width, r.index.height, 3, |x, y, c| match r.index.get(x, y) {
-                    None => 0.0,
-                    Some((s, sx, sy)) => {
-                        let info = &r.sources[s];
-                        match c {
-                            0 => (sx as f32 + 0.5) / info.width as f32,
-                            1 => (sy as f32 + 0.5) / info.height as f32,
-                            _ => (s as f32 + 1.0) / sources,
-                        }
+    let mut inputs = Inputs::new();
+    let drawing = QuiltView { quilted: inputs.add(quilt_node), view, format };
+    let stage = FnStage::keyed("output.layer", 2, drawing, quilt_view);
+    Ok(p.add(format!("output {}", d.name), stage, inputs, vec![]))
+}
+
+/// What a layer's `seams` or `index` view is drawn from.
+#[derive(serde::Serialize)]
+struct QuiltView {
+    quilted: In<QuiltResult>,
+    view: View,
+    format: OutputFormat,
+}
+
+fn quilt_view(cx: &RunCx, v: &QuiltView) -> Result<Bytes, StageError> {
+    let r = cx.get(v.quilted);
+    let img = match v.view {
+        View::Seams => r.seams.clone(),
+        // Where each pixel came from: x → red, y → green, source → blue.
+        _ => {
+            let sources = r.sources.len().max(1) as f32;
+            Image::from_fn(r.index.width, r.index.height, 3, |x, y, c| match r.index.get(x, y) {
+                None => 0.0,
+                Some((s, sx, sy)) => {
+                    let info = &r.sources[s];
+                    match c {
+                        0 => (sx as f32 + 0.5) / info.width as f32,
+                        1 => (sy as f32 + 0.5) / info.height as f32,
+                        _ => (s as f32 + 1.0) / sources,
                     }
-                })
-            }
-        };
-        encode_image(&img, format)
-    });
-    Ok(p.add(format!("output {}", d.name), stage, vec![quilt_node], vec![]))
+                }
+            })
+        }
+    };
+    encode_image(&img, v.format)
 }
 
 impl Encoded for QuiltResult {

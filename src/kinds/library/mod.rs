@@ -16,7 +16,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use super::{Bytes, ColorSpace, Encoded, FnStage, Planner};
-use crate::graph::{NodeId, StageError};
+use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::ir::Call;
 use crate::lang::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value};
 use crate::lang::{Decl, Diagnostic, Val};
@@ -158,7 +158,7 @@ fn feature_params(d: &Decl) -> FeatureParams {
     }
 }
 
-pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Index>, Diagnostic> {
     let size = d.props.int("size");
     if size & (size - 1) != 0 {
         return Err(Diagnostic::error(format!("the Fourier analysis size must be a power of two, not {size}"))
@@ -170,71 +170,84 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let files: Vec<PathBuf> = files.to_vec();
     let span = d.props.span("dir").unwrap_or(d.name_span);
     let params = feature_params(d);
-    let key = serde_json::to_string(&params).expect("serialises");
-    let mut nodes = Vec::with_capacity(files.len());
+    let mut inputs = Inputs::new();
     let mut names = Vec::with_capacity(files.len());
-    let budget = p.budget;
+    let mut features = Vec::with_capacity(files.len());
     for f in &files {
         let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let stage = features_stage(&key, params, name.clone(), budget);
-        nodes.push(p.add(format!("library {} ({name})", d.name), stage, vec![], vec![(f.clone(), span)]));
+        let stage = features_stage(params);
+        let node = p.add(format!("library {} ({name})", d.name), stage, Inputs::new(), vec![(f.clone(), span)]);
+        features.push(inputs.add(node));
         names.push(name);
     }
-    Ok(p.add(format!("library {}", d.name), index_stage(names), nodes, vec![]))
+    Ok(p.add(format!("library {}", d.name), index_stage(Indexing { names, features }), inputs, vec![]))
 }
 
-/// The `library.features` stage of one file, named `shown` in its errors. Scenes and
-/// `tessera similar` build it here alike, so they share cached features.
-fn features_stage(key: &str, params: FeatureParams, shown: String, budget: crate::graph::Budget) -> FnStage<Features> {
-    FnStage::new("library.features", 1, key.to_string(), move |cx| {
-        let img = decode_entry(&cx.file(0)?, &shown, budget)?;
-        lib::features(&img, &params).map_err(|e| StageError::new(format!("`{shown}`: {e}")).in_file(0))
+/// The `library.features` stage of one file. Scenes and `tessera similar` build it here
+/// alike, so they share cached features.
+fn features_stage(params: FeatureParams) -> FnStage<Features> {
+    FnStage::keyed("library.features", 2, params, |cx, params| {
+        let shown = cx.file_name(0);
+        let img = decode_entry(&cx.file(0)?, &shown, cx.budget())?;
+        lib::features(&img, params).map_err(|e| StageError::new(format!("`{shown}`: {e}")).in_file(0))
     })
 }
 
-/// The `library.index` stage gathering the entries' features (its inputs, in `names` order).
-fn index_stage(names: Vec<String>) -> FnStage<Index> {
-    let key = serde_json::json!({ "names": names }).to_string();
-    FnStage::new("library.index", 1, key, move |cx| {
-        let features = (0..cx.input_count()).map(|i| (*cx.input::<Features>(i)).clone()).collect();
-        Ok(Index { names: names.clone(), features })
+/// What the `library.index` stage gathers: the entries' names and features, in order.
+#[derive(Serialize)]
+struct Indexing {
+    names: Vec<String>,
+    features: Vec<In<Features>>,
+}
+
+fn index_stage(indexing: Indexing) -> FnStage<Index> {
+    FnStage::keyed("library.index", 2, indexing, |cx, ix| {
+        let features = ix.features.iter().map(|&f| (*cx.get(f)).clone()).collect();
+        Ok(Index { names: ix.names.clone(), features })
     })
 }
 
-/// The `library.query` stage ranking an index (input 0) against a target's features
-/// (input 1); a bad query is blamed on `blame` when a scene property set it.
-fn query_stage(
+/// What the `library.query` stage ranks: an index against a target's features; a bad
+/// query is blamed on `blame` when a scene property set it.
+#[derive(Serialize)]
+struct Querying {
+    index: In<Index>,
+    target: In<Features>,
     query: QueryParams,
-    (k, randomness, seed): (usize, f64, u64),
+    k: usize,
+    randomness: f64,
+    seed: u64,
     to: String,
     blame: Option<&'static str>,
-) -> FnStage<Ranking> {
-    let key =
-        serde_json::json!({ "query": query, "k": k, "randomness": randomness, "seed": seed, "to": to }).to_string();
-    FnStage::new("library.query", 1, key, move |cx| {
-        let index = cx.input::<Index>(0);
-        let target = cx.input::<Features>(1);
-        let chosen = lib::query(&index.features, &target, &query, k, randomness, seed).map_err(|e| {
-            let e = StageError::new(e.to_string());
-            match blame {
-                Some(prop) => e.at_prop(prop),
-                None => e,
-            }
-        })?;
-        Ok(Ranking {
-            target: to.clone(),
-            axes: query.axes.iter().map(axis_name).collect(),
-            candidates: chosen
-                .into_iter()
-                .map(|r| Candidate {
-                    name: index.names[r.index].clone(),
-                    index: r.index,
-                    distance: r.distance,
-                    axes: r.axes,
-                    raw: r.raw,
-                })
-                .collect(),
-        })
+}
+
+fn query_stage(querying: Querying) -> FnStage<Ranking> {
+    FnStage::keyed("library.query", 2, querying, run_query)
+}
+
+fn run_query(cx: &RunCx, q: &Querying) -> Result<Ranking, StageError> {
+    let index = cx.get(q.index);
+    let target = cx.get(q.target);
+    let chosen = lib::query(&index.features, &target, &q.query, q.k, q.randomness, q.seed).map_err(|e| {
+        let e = StageError::new(e.to_string());
+        match q.blame {
+            Some(prop) => e.at_prop(prop),
+            None => e,
+        }
+    })?;
+    Ok(Ranking {
+        target: q.to.clone(),
+        axes: q.query.axes.iter().map(axis_name).collect(),
+        candidates: chosen
+            .into_iter()
+            .map(|r| Candidate {
+                name: index.names[r.index].clone(),
+                index: r.index,
+                distance: r.distance,
+                axes: r.axes,
+                raw: r.raw,
+            })
+            .collect(),
     })
 }
 
@@ -251,7 +264,7 @@ fn decode_entry(bytes: &[u8], name: &str, budget: crate::graph::Budget) -> Resul
 }
 
 /// Plans `similar(...)` for sample `d`: returns the query node; the caller picks the image.
-pub fn plan_similar(p: &mut Planner, d: &Decl, call: &Call) -> Result<(NodeId, Vec<PathBuf>), Diagnostic> {
+pub fn plan_similar(p: &mut Planner, d: &Decl, call: &Call) -> Result<(Handle<Ranking>, Vec<PathBuf>), Diagnostic> {
     let a = &call.args;
     let library = a.str("library").to_string();
     let to = a.str("to").to_string();
@@ -259,23 +272,11 @@ pub fn plan_similar(p: &mut Planner, d: &Decl, call: &Call) -> Result<(NodeId, V
     let (_, files) = lib_decl.props.dir("dir").expect("required");
     let files = files.to_vec();
     let params = feature_params(lib_decl);
-    let target_color = p.color_space(&to);
-    let key = serde_json::json!({ "features": params, "color": target_color }).to_string();
-    let stage = FnStage::new("library.target", 1, key, move |cx| {
-        let img = cx.input::<Image>(0);
-        let encoded = match target_color {
-            ColorSpace::Linear => raster::color::image_linear_to_srgb(&img),
-            ColorSpace::Lab => raster::color::image_linear_to_srgb(&raster::color::image_lab_to_linear(&img)),
-            ColorSpace::Srgb => (*img).clone(),
-        };
-        lib::features(&encoded, &params).map_err(|e| StageError::new(e.to_string()).at_prop("from"))
-    });
-    let target = p.add(
-        format!("sample {} (features of {to})", d.name),
-        stage,
-        vec![p.value(&to, a.span("to").unwrap_or(d.name_span))?],
-        vec![],
-    );
+    let mut inputs = Inputs::new();
+    let image = inputs.add(p.value(&to, a.span("to").unwrap_or(d.name_span))?);
+    let targeting = Targeting { image, features: params, color: p.color_space(&to) };
+    let stage = FnStage::keyed("library.target", 2, targeting, target_features);
+    let target = p.add(format!("sample {} (features of {to})", d.name), stage, inputs, vec![]);
 
     let mut axes = Vec::new();
     if a.bool("colour") {
@@ -312,9 +313,29 @@ pub fn plan_similar(p: &mut Planner, d: &Decl, call: &Call) -> Result<(NodeId, V
         histogram: HistogramNorm::Fraction,
         exclude: None,
     };
-    let stage = query_stage(query, (k, randomness, seed), to, Some("from"));
-    let node = p.add(format!("sample {} (query)", d.name), stage, vec![p.result(&library), target], vec![]);
+    let mut inputs = Inputs::new();
+    let (index, target) = (inputs.add(p.result(&library)), inputs.add(target));
+    let querying = Querying { index, target, query, k, randomness, seed, to, blame: Some("from") };
+    let node = p.add(format!("sample {} (query)", d.name), query_stage(querying), inputs, vec![]);
     Ok((node, files))
+}
+
+/// What `library.target` works from: the target image, in its colour space.
+#[derive(Serialize)]
+struct Targeting {
+    image: In<Image>,
+    features: FeatureParams,
+    color: ColorSpace,
+}
+
+fn target_features(cx: &RunCx, t: &Targeting) -> Result<Features, StageError> {
+    let img = cx.get(t.image);
+    let encoded = match t.color {
+        ColorSpace::Linear => raster::color::image_linear_to_srgb(&img),
+        ColorSpace::Lab => raster::color::image_linear_to_srgb(&raster::color::image_lab_to_linear(&img)),
+        ColorSpace::Srgb => (*img).clone(),
+    };
+    lib::features(&encoded, &t.features).map_err(|e| StageError::new(e.to_string()).at_prop("from"))
 }
 
 pub fn axis_name(a: &Axis) -> String {
@@ -334,13 +355,9 @@ pub fn ranking_json(r: &Ranking) -> Bytes {
     Bytes(text.into_bytes())
 }
 
-/// The candidate `pick` (1-based) of a ranking, decoded from the library's files.
-pub fn pick_bytes(
-    cx: &crate::graph::RunCx,
-    files: &[PathBuf],
-    ranking: &Arc<Ranking>,
-    pick: usize,
-) -> Result<(Arc<[u8]>, usize), StageError> {
+/// The candidate `pick` (1-based) of a ranking, read from the stage's files (the
+/// library's, in its order).
+pub fn pick_bytes(cx: &RunCx, ranking: &Arc<Ranking>, pick: usize) -> Result<(Arc<[u8]>, usize), StageError> {
     let c = ranking.candidates.get(pick - 1).ok_or_else(|| {
         StageError::new(format!(
             "the query found only {} candidate(s), so there is no number {pick}",
@@ -348,7 +365,7 @@ pub fn pick_bytes(
         ))
         .at_prop("from")
     })?;
-    debug_assert!(c.index < files.len());
+    debug_assert!(c.index < cx.file_count());
     Ok((cx.file(c.index)?, c.index))
 }
 
@@ -360,8 +377,8 @@ impl super::Kind for Library {
         &SPEC
     }
 
-    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
-        plan(p, d).map(Some)
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<AnyHandle>, Diagnostic> {
+        plan(p, d).map(|h| Some(h.erase()))
     }
 }
 
@@ -399,43 +416,34 @@ pub fn entries(world: &crate::graph::World, dir: &std::path::Path) -> std::io::R
 /// command line and a scene's library of it share cached features. The target is read as
 /// an entry is (`library.features` of its file, not a `sample`), as the command always has;
 /// errors name files by their full paths, as the command's always have.
-pub fn plan_standalone(graph: &mut crate::graph::Graph, q: Standalone, budget: crate::graph::Budget) -> NodeId {
+pub fn plan_standalone(graph: &mut crate::graph::Graph, q: Standalone) -> Handle<Ranking> {
     let params =
         FeatureParams { bins: q.bins, size: q.size, resample: true, luma: Luma::Mean, ..FeatureParams::default() };
-    let key = serde_json::to_string(&params).expect("serialises");
     let features = |graph: &mut crate::graph::Graph, file: &PathBuf, label: String| {
-        let stage = features_stage(&key, params, file.display().to_string(), budget);
-        graph.add(crate::graph::Node {
-            label,
-            stage: Box::new(stage),
-            inputs: vec![],
-            files: vec![file.clone()],
-            origin: 0,
-        })
+        graph.add_typed(label, features_stage(params), Inputs::new(), vec![file.clone()], 0)
     };
     let names: Vec<String> =
         q.files.iter().map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()).collect();
-    let nodes: Vec<NodeId> =
+    let nodes: Vec<Handle<Features>> =
         q.files.iter().zip(&names).map(|(f, name)| features(graph, f, format!("library ({name})"))).collect();
     let target = match q.files.iter().position(|f| *f == q.target) {
         Some(i) => nodes[i],
         None => features(graph, &q.target, format!("target {}", q.target.display())),
     };
-    let stage = index_stage(names);
-    let index = graph.add(crate::graph::Node {
-        label: "library".into(),
-        stage: Box::new(stage),
-        inputs: nodes,
-        files: vec![],
-        origin: 0,
-    });
+    let mut inputs = Inputs::new();
+    let indexing = Indexing { names, features: inputs.add_all(nodes) };
+    let index = graph.add_typed("library".into(), index_stage(indexing), inputs, vec![], 0);
     let query = QueryParams { axes: q.axes, normalise: q.normalise, histogram: HistogramNorm::Fraction, exclude: None };
-    let stage = query_stage(query, (q.k, q.randomness, q.seed), q.target.display().to_string(), None);
-    graph.add(crate::graph::Node {
-        label: "similar (query)".into(),
-        stage: Box::new(stage),
-        inputs: vec![index, target],
-        files: vec![],
-        origin: 0,
-    })
+    let mut inputs = Inputs::new();
+    let querying = Querying {
+        index: inputs.add(index),
+        target: inputs.add(target),
+        query,
+        k: q.k,
+        randomness: q.randomness,
+        seed: q.seed,
+        to: q.target.display().to_string(),
+        blame: None,
+    };
+    graph.add_typed("similar (query)".into(), query_stage(querying), inputs, vec![], 0)
 }

@@ -4,10 +4,8 @@
 //! Two stages: `map.source` makes the field, `map.ops` applies blur → threshold → invert →
 //! remap. Editing an operation re-runs only the second.
 
-use std::sync::Arc;
-
 use super::{FnStage, Planner};
-use crate::graph::{NodeId, RunCx, StageError};
+use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::ir::Call;
 use crate::lang::schema::{
     CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, ANY, NON_NEG, POSITIVE, UNIT,
@@ -197,7 +195,7 @@ pub static SPEC: KindSpec = KindSpec {
 /// blurred 2048² noise map peaks at ≈ 21 bytes per pixel).
 const MAP_BYTES_PER_PIXEL: f64 = 24.0;
 
-pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
     let (w, h) = d.props.size("size");
     let (w, h) = (w as usize, h as usize);
     p.check_pixels(d, d.props.span("size"), (w, h), MAP_BYTES_PER_PIXEL)?;
@@ -209,57 +207,82 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         Val::Call(call) => plan_source(p, d, call, w, h),
         v => unreachable!("checked source {v:?}"),
     };
-    let blur = d.props.num("blur") as f32;
-    let threshold = d.props.opt_num("threshold").map(|t| t as f32);
-    let invert = d.props.bool("invert");
-    let remap = d.props.opt_numbers("remap").map(|r| [r[0] as f32, r[1] as f32]);
+    let mut inputs = Inputs::new();
+    let ops = Ops {
+        source: inputs.add(source),
+        w,
+        h,
+        blur: d.props.num("blur") as f32,
+        threshold: d.props.opt_num("threshold").map(|t| t as f32),
+        invert: d.props.bool("invert"),
+        remap: d.props.opt_numbers("remap").map(|r| [r[0] as f32, r[1] as f32]),
+    };
     let is_ref = matches!(d.props.get("from"), Some(Val::Ref(_)));
-    if !is_ref && blur == 0.0 && threshold.is_none() && !invert && remap.is_none() {
+    if !is_ref && ops.blur == 0.0 && ops.threshold.is_none() && !ops.invert && ops.remap.is_none() {
         return Ok(source);
     }
-    let params =
-        serde_json::json!({ "w": w, "h": h, "blur": blur, "threshold": threshold, "invert": invert, "remap": remap })
-            .to_string();
-    let stage = FnStage::new("map.ops", 1, params, move |cx| {
-        let mut img = fit(&cx.input::<Image>(0), w, h);
-        if blur > 0.0 {
-            img = m::blur(&img, blur).map_err(|e| StageError::new(e.to_string()).at_prop("blur"))?;
-        }
-        if let Some(t) = threshold {
-            img = m::threshold(&img, t);
-        }
-        if invert {
-            img = m::invert(&img);
-        }
-        if let Some(r) = remap {
-            img = m::remap(&img, [0.0, 1.0], r).map_err(|e| StageError::new(e.to_string()).at_prop("remap"))?;
-        }
-        Ok(img)
-    });
-    Ok(p.add(format!("map {} (ops)", d.name), stage, vec![source], vec![]))
+    let stage = FnStage::keyed("map.ops", 2, ops, apply_ops);
+    Ok(p.add(format!("map {} (ops)", d.name), stage, inputs, vec![]))
 }
 
-fn plan_source(p: &mut Planner, d: &Decl, call: &Call, w: usize, h: usize) -> NodeId {
+/// What the ops stage works from: the source map, the size to fit it to, and the ops in
+/// the order they apply.
+#[derive(serde::Serialize)]
+struct Ops {
+    source: In<Image>,
+    w: usize,
+    h: usize,
+    blur: f32,
+    threshold: Option<f32>,
+    invert: bool,
+    remap: Option<[f32; 2]>,
+}
+
+fn apply_ops(cx: &RunCx, o: &Ops) -> Result<Image, StageError> {
+    let mut img = fit(&cx.get(o.source), o.w, o.h);
+    if o.blur > 0.0 {
+        img = m::blur(&img, o.blur).map_err(|e| StageError::new(e.to_string()).at_prop("blur"))?;
+    }
+    if let Some(t) = o.threshold {
+        img = m::threshold(&img, t);
+    }
+    if o.invert {
+        img = m::invert(&img);
+    }
+    if let Some(r) = o.remap {
+        img = m::remap(&img, [0.0, 1.0], r).map_err(|e| StageError::new(e.to_string()).at_prop("remap"))?;
+    }
+    Ok(img)
+}
+
+/// What a map source stage works from: the constructor call, the map's size and seed, and
+/// the maps `combine` reads.
+#[derive(serde::Serialize)]
+struct Source {
+    call: Call,
+    w: usize,
+    h: usize,
+    seed: u64,
+    operands: Option<[In<Image>; 2]>,
+}
+
+fn plan_source(p: &mut Planner, d: &Decl, call: &Call, w: usize, h: usize) -> Handle<Image> {
     let a = &call.args;
-    let mut inputs = Vec::new();
+    let mut inputs = Inputs::new();
     let mut files = Vec::new();
     let seed = match a.get("seed") {
         Some(Val::Int(s)) => *s as u64,
         _ => p.seed(d, "map.noise"),
     };
+    let mut operands = None;
     match call.name.as_str() {
         "image" => files.push((a.path("path").expect("required").clone(), a.span("path").unwrap_or(d.name_span))),
-        "combine" => {
-            inputs.push(p.result(a.str("a")));
-            inputs.push(p.result(a.str("b")));
-        }
+        "combine" => operands = Some([inputs.add(p.result(a.str("a"))), inputs.add(p.result(a.str("b")))]),
         _ => {}
     }
-    let params = serde_json::json!({ "call": call, "w": w, "h": h, "seed": seed }).to_string();
-    let call = Arc::new(call.clone());
-    let budget = p.budget;
-    let stage = FnStage::new("map.source", 1, params, move |cx| {
-        evaluate(&call, w, h, seed, budget, cx).map_err(|e| match e.prop {
+    let source = Source { call: call.clone(), w, h, seed, operands };
+    let stage = FnStage::keyed("map.source", 2, source, |cx, s| {
+        evaluate(s, cx).map_err(|e| match e.prop {
             // Parameter errors from the algorithms name a `from(...)` argument.
             None if e.file.is_none() => e.at_prop("from"),
             _ => e,
@@ -268,14 +291,8 @@ fn plan_source(p: &mut Planner, d: &Decl, call: &Call, w: usize, h: usize) -> No
     p.add(format!("map {}", d.name), stage, inputs, files)
 }
 
-fn evaluate(
-    call: &Call,
-    w: usize,
-    h: usize,
-    seed: u64,
-    budget: crate::graph::Budget,
-    cx: &RunCx,
-) -> Result<Image, StageError> {
+fn evaluate(s: &Source, cx: &RunCx) -> Result<Image, StageError> {
+    let (call, w, h, seed) = (&s.call, s.w, s.h, s.seed);
     let a = &call.args;
     let f32s = |v: [f64; 2]| [v[0] as f32, v[1] as f32];
     let center =
@@ -284,7 +301,7 @@ fn evaluate(
     match call.name.as_str() {
         "image" => {
             let bytes = cx.file(0)?;
-            let img = super::decode_image(&bytes, budget)
+            let img = super::decode_image(&bytes, cx.budget())
                 .map_err(|e| StageError::new(format!("cannot decode the image: {e}")).in_file(0))?;
             let field = match CHANNELS.get(a.enumeration("channel")) {
                 Channel::Vector => m::from_image_vector(&img),
@@ -322,7 +339,7 @@ fn evaluate(
             m::noise(w, h, seed, &params).map_err(map_err)
         }
         "combine" => {
-            let (x, y) = (fit(&cx.input::<Image>(0), w, h), fit(&cx.input::<Image>(1), w, h));
+            let [x, y] = s.operands.expect("`combine` reads two maps").map(|i| fit(&cx.get(i), w, h));
             let op = match OPS.get(a.enumeration("op")) {
                 Op::Multiply => m::CombineOp::Multiply,
                 Op::Add => m::CombineOp::Add,
@@ -355,7 +372,7 @@ impl super::Kind for Map {
         &SPEC
     }
 
-    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
-        plan(p, d).map(Some)
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<AnyHandle>, Diagnostic> {
+        plan(p, d).map(|h| Some(h.erase()))
     }
 }

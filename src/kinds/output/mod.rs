@@ -2,7 +2,7 @@
 //! cached artifact; writing them to disk (atomically, only when changed) is the driver's job.
 
 use super::{Bytes, ColorSpace, FnStage, Planner};
-use crate::graph::{NodeId, StageError};
+use crate::graph::{AnyHandle, Handle, In, Inputs, NodeId, StageError};
 use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, Value, POSITIVE, UNIT};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic};
@@ -24,10 +24,7 @@ pub static SPEC: KindSpec = KindSpec {
         },
         PropSpec {
             name: "view",
-            ty: Ty::Enum(&[
-                "auto", "labels", "labels16", "edges", "ellipses", "distance", "closest", "mesh", "svg", "stats", "seams",
-                "index",
-            ]),
+            ty: Ty::Enum(VIEWS.names),
             default: Default::Text("auto"),
             doc: "For structures: `labels` (a colour per region), `labels16` (region ids in a 16-bit PNG), `edges`, `ellipses` (over the labels), `distance` (to each region's generator), `closest` (associated original shapes), `mesh` (JSON), `svg`, `stats` (JSON report against the sample). `auto`: `mesh` for .json, `svg` for .svg, `labels` for images. For quilted layers: `seams` (the block seams) and `index` (where each pixel came from: sample x → red, y → green).",
         },
@@ -39,7 +36,7 @@ pub static SPEC: KindSpec = KindSpec {
         },
         PropSpec {
             name: "format",
-            ty: Ty::Enum(&["auto", "png8", "png16", "exr"]),
+            ty: Ty::Enum(FORMATS.names),
             default: Default::Text("auto"),
             doc: "File format; `auto` picks from the extension (`.png` → 8-bit PNG, `.exr` → 32-bit float EXR).",
         },
@@ -57,6 +54,48 @@ pub static SPEC: KindSpec = KindSpec {
         },
     ],
 };
+
+/// The `view` property: which view of its source an output writes. Which views a source
+/// has is its kind's to say ([`Kind::plan_output`](super::Kind::plan_output)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum View {
+    Auto,
+    Labels,
+    Labels16,
+    Edges,
+    Ellipses,
+    Distance,
+    Closest,
+    Mesh,
+    Svg,
+    Stats,
+    Seams,
+    Index,
+}
+
+crate::choices!(
+    /// The `view` property of outputs.
+    pub VIEWS: View {
+        "auto" => View::Auto, "labels" => View::Labels, "labels16" => View::Labels16, "edges" => View::Edges,
+        "ellipses" => View::Ellipses, "distance" => View::Distance, "closest" => View::Closest,
+        "mesh" => View::Mesh, "svg" => View::Svg, "stats" => View::Stats, "seams" => View::Seams,
+        "index" => View::Index,
+    }
+);
+
+/// The `format` property as written: a format, or the one the extension implies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    Auto,
+    Png8,
+    Png16,
+    Exr,
+}
+
+crate::choices!(FORMATS: Format {
+    "auto" => Format::Auto, "png8" => Format::Png8, "png16" => Format::Png16, "exr" => Format::Exr
+});
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum OutputFormat {
@@ -89,19 +128,19 @@ pub struct PlannedOutput {
     pub span: Span,
 }
 
-/// What an encode stage works from besides its input.
+/// What an encode stage works from.
 #[derive(serde::Serialize)]
 struct Encoding {
     format: OutputFormat,
-    view: View,
+    pixels: Pixels,
 }
 
-fn encode(cx: &crate::graph::RunCx, &Encoding { format, view }: &Encoding) -> Result<Bytes, StageError> {
-    let img: Image = match view {
-        View::Plane => cx.input::<Plane>(0).occupancy.clone(),
-        View::Image { space } => to_file_space(&cx.input::<Image>(0), space, format),
-        View::Data => {
-            let img = cx.input::<Image>(0);
+fn encode(cx: &crate::graph::RunCx, &Encoding { format, pixels }: &Encoding) -> Result<Bytes, StageError> {
+    let img: Image = match pixels {
+        Pixels::Plane(plane) => cx.get(plane).occupancy.clone(),
+        Pixels::Image { space, image } => to_file_space(&cx.get(image), space, format),
+        Pixels::Data(map) => {
+            let img = cx.get(map);
             if img.channels == 2 && format != OutputFormat::Exr {
                 vector_view(&img)
             } else {
@@ -115,29 +154,30 @@ fn encode(cx: &crate::graph::RunCx, &Encoding { format, view }: &Encoding) -> Re
 /// How the source's pixels become file pixels.
 #[derive(Clone, Copy, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
-enum View {
+enum Pixels {
     /// Values written as they are (maps; 2-channel fields as RGB).
-    Data,
+    Data(In<Image>),
     /// An image in a colour space, converted to the file's (PNG: sRGB, EXR: linear).
-    Image { space: ColorSpace },
+    Image { space: ColorSpace, image: In<Image> },
     /// A surface's occupancy.
-    Plane,
+    Plane(In<Plane>),
 }
 
-pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
     let ext = std::path::Path::new(&d.name).extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let format = match (d.props.enumeration("format"), ext.as_str()) {
-        ("auto" | "png8", "png") => OutputFormat::Png8,
-        ("png16", "png") => OutputFormat::Png16,
-        ("auto" | "exr", "exr") => OutputFormat::Exr,
-        ("auto", "json") => OutputFormat::Json,
-        ("auto", "svg") => OutputFormat::Svg,
+    let written = d.props.enumeration("format");
+    let format = match (FORMATS.get(written), ext.as_str()) {
+        (Format::Auto | Format::Png8, "png") => OutputFormat::Png8,
+        (Format::Png16, "png") => OutputFormat::Png16,
+        (Format::Auto | Format::Exr, "exr") => OutputFormat::Exr,
+        (Format::Auto, "json") => OutputFormat::Json,
+        (Format::Auto, "svg") => OutputFormat::Svg,
         (f, e) => {
             let span = d.props.span("format").unwrap_or(d.name_span);
-            return Err(Diagnostic::error(if f == "auto" {
+            return Err(Diagnostic::error(if f == Format::Auto {
                 format!("tessera cannot write `.{e}` files")
             } else {
-                format!("format `{f}` does not match the extension `.{e}`")
+                format!("format `{written}` does not match the extension `.{e}`")
             })
             .with_code("tessera::output_format")
             .with_label(span, "here")
@@ -152,14 +192,14 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     })?;
     let name = name.to_string_lossy().into_owned();
     let from = d.props.reference("from").expect("required");
-    let view = d.props.enumeration("view");
+    let view = VIEWS.get(d.props.enumeration("view"));
     let request = super::OutputRequest { decl: d, from, format, view, ext: &ext };
     if let Some(v) = super::kind(p.decl(from).kind).plan_output(p, &request)? {
-        p.outputs.push(planned(d, &name, v.node, format, v.exact)?);
+        p.outputs.push(planned(d, &name, v.node.node(), format, v.exact)?);
         return Ok(v.node);
     }
     let src = p.decl(from);
-    if view != "auto" {
+    if view != View::Auto {
         return Err(Diagnostic::error(format!("`view` applies to structures and layers, not to a {}", src.kind))
             .with_code("tessera::output_view")
             .with_label(d.props.span("view").unwrap_or(d.name_span), "remove this"));
@@ -171,15 +211,16 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     }
     // The generic views, by what the source exports.
     let exports = p.exports(from);
-    let view = match (exports.image, exports.plane) {
-        (Some(space), _) => View::Image { space },
-        (None, Some(_)) => View::Plane,
-        (None, None) => View::Data,
+    let at = d.props.span("from").unwrap_or(d.name_span);
+    let mut inputs = Inputs::new();
+    let pixels = match (exports.image, exports.plane) {
+        (Some(space), _) => Pixels::Image { space, image: inputs.add(p.value(from, at)?) },
+        (None, Some(_)) => Pixels::Plane(inputs.add(p.value(from, at)?)),
+        (None, None) => Pixels::Data(inputs.add(p.value(from, at)?)),
     };
-    let input = p.value(from, d.props.span("from").unwrap_or(d.name_span))?;
-    let stage = FnStage::keyed("output.encode", 2, Encoding { format, view }, encode);
-    let node = p.add(format!("output {}", d.name), stage, vec![input], vec![]);
-    p.outputs.push(planned(d, &name, node, format, false)?);
+    let stage = FnStage::keyed("output.encode", 3, Encoding { format, pixels }, encode);
+    let node = p.add(format!("output {}", d.name), stage, inputs, vec![]);
+    p.outputs.push(planned(d, &name, node.node(), format, false)?);
     Ok(node)
 }
 
@@ -246,7 +287,7 @@ impl super::Kind for Output {
         &SPEC
     }
 
-    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
-        plan(p, d).map(Some)
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<AnyHandle>, Diagnostic> {
+        plan(p, d).map(|h| Some(h.erase()))
     }
 }

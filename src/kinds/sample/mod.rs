@@ -3,7 +3,7 @@
 //! the stages that read them.
 
 use super::{Bytes, FnStage, Planner};
-use crate::graph::{NodeId, StageError};
+use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, Value, ANY};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic, Val};
@@ -67,13 +67,13 @@ pub static SPEC: KindSpec = KindSpec {
 
 /// The node holding the sample's structure file, if any, is planned as a second stage so
 /// that an edit to the photo does not invalidate structure analysis and vice versa.
-pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<AnyHandle, Diagnostic> {
     let props = &d.props;
-    if let Some(path) = props.path("structure") {
-        let stage = FnStage::new("sample.file", 1, String::new(), |cx| Ok(Bytes(cx.file(0)?.to_vec())));
+    let structure = props.path("structure").map(|path| {
+        let stage = FnStage::keyed("sample.file", 2, (), |cx, ()| Ok(Bytes(cx.file(0)?.to_vec())));
         let span = props.span("structure").unwrap_or(d.name_span);
-        p.add(format!("sample {} (structure)", d.name), stage, vec![], vec![(path.clone(), span)]);
-    }
+        p.add(format!("sample {} (structure)", d.name), stage, Inputs::new(), vec![(path.clone(), span)])
+    });
     let similar = match props.get("from") {
         Some(Val::Call(call)) => Some(call),
         _ => None,
@@ -85,45 +85,54 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     }
     let path = match (props.path("image").cloned(), similar) {
         (Some(path), _) => path,
-        (None, Some(call)) => return plan_similar(p, d, call),
+        (None, Some(call)) => return plan_similar(p, d, call).map(Handle::erase),
         (None, None) => {
             // A sample without an image: its result is the structure pass-through (or nothing).
-            if props.path("structure").is_some() {
-                return Ok(p.last());
+            if let Some(structure) = structure {
+                return Ok(structure.erase());
             }
             return Err(Diagnostic::error(format!("sample `{}` names no file", d.name))
                 .with_code("tessera::missing_property")
                 .with_label(d.name_span, "give it an `image`, a `from` or a `structure`"));
         }
     };
-    let prep = Prepare::of(d, p.budget)?;
+    let prep = Prepare::of(d)?;
     if let Some((w, h)) = prep.resize {
         p.check_pixels(d, d.props.span("resize"), (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
     }
-    let params = props.canonical();
-    let stage = FnStage::new("sample.image", 1, params, move |cx| prep.apply(&cx.file(0)?, 0));
+    let stage = FnStage::keyed("sample.image", 2, prep, |cx, prep| prep.apply(&cx.file(0)?, 0, cx.budget()));
     let span = props.span("image").unwrap_or(d.name_span);
-    Ok(p.add(format!("sample {}", d.name), stage, vec![], vec![(path, span)]))
+    Ok(p.add(format!("sample {}", d.name), stage, Inputs::new(), vec![(path, span)]).erase())
 }
 
-fn plan_similar(p: &mut Planner, d: &Decl, call: &crate::lang::ir::Call) -> Result<NodeId, Diagnostic> {
+fn plan_similar(p: &mut Planner, d: &Decl, call: &crate::lang::ir::Call) -> Result<Handle<Image>, Diagnostic> {
     let (query, files) = super::library::plan_similar(p, d, call)?;
-    p.parts.insert((d.name.clone(), "ranking"), query);
-    let prep = Prepare::of(d, p.budget)?;
+    p.set_part(d, "ranking", query);
+    let prep = Prepare::of(d)?;
     if let Some((w, h)) = prep.resize {
         p.check_pixels(d, d.props.span("resize"), (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
     }
-    let pick = call.args.int("pick") as usize;
     let span = d.props.span("from").unwrap_or(d.name_span);
-    let params = d.props.canonical();
-    let library_files = files.clone();
-    let stage = FnStage::new("sample.pick", 1, params, move |cx| {
-        let ranking = cx.input::<super::library::Ranking>(0);
-        let (bytes, index) = super::library::pick_bytes(cx, &library_files, &ranking, pick)?;
-        prep.apply(&bytes, index)
-    });
+    let mut inputs = Inputs::new();
+    let picking = Picking { ranking: inputs.add(query), pick: call.args.int("pick") as usize, prep };
+    let stage = FnStage::keyed("sample.pick", 2, picking, pick);
     let files = files.into_iter().map(|f| (f, span)).collect();
-    Ok(p.add(format!("sample {}", d.name), stage, vec![query], files))
+    Ok(p.add(format!("sample {}", d.name), stage, inputs, files))
+}
+
+/// What `sample.pick` works from: the ranking of the library (whose files are the stage's
+/// files, in the library's order), which candidate to take, and how to prepare it.
+#[derive(serde::Serialize)]
+struct Picking {
+    ranking: In<super::library::Ranking>,
+    pick: usize,
+    prep: Prepare,
+}
+
+fn pick(cx: &RunCx, s: &Picking) -> Result<Image, StageError> {
+    let ranking = cx.get(s.ranking);
+    let (bytes, index) = super::library::pick_bytes(cx, &ranking, s.pick)?;
+    s.prep.apply(&bytes, index, cx.budget())
 }
 
 /// Peak bytes per pixel of a resized sample: up to four f32 channels held as the source's
@@ -131,9 +140,8 @@ fn plan_similar(p: &mut Planner, d: &Decl, call: &crate::lang::ir::Call) -> Resu
 const RESIZE_BYTES_PER_PIXEL: f64 = 48.0;
 
 /// How an image file becomes a sample: decode, linearise, crop, resize, colour space.
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize)]
 struct Prepare {
-    budget: crate::graph::Budget,
     crop: Option<[usize; 4]>,
     resize: Option<(u32, u32)>,
     filter: raster::resample::Filter,
@@ -141,7 +149,7 @@ struct Prepare {
 }
 
 impl Prepare {
-    fn of(d: &Decl, budget: crate::graph::Budget) -> Result<Prepare, Diagnostic> {
+    fn of(d: &Decl) -> Result<Prepare, Diagnostic> {
         let props = &d.props;
         let crop = match props.opt_numbers("crop") {
             None => None,
@@ -160,12 +168,12 @@ impl Prepare {
         let resize = props.opt_size("resize");
         let filter = FILTERS.get(props.enumeration("filter"));
         let color = super::COLOR_SPACES.get(props.enumeration("color"));
-        Ok(Prepare { budget, crop, resize, filter, color })
+        Ok(Prepare { crop, resize, filter, color })
     }
 
     /// `file` is the index of the file the bytes came from, for blame.
-    fn apply(&self, bytes: &[u8], file: usize) -> Result<Image, StageError> {
-        let img = super::decode_image(bytes, self.budget)
+    fn apply(&self, bytes: &[u8], file: usize, budget: crate::graph::Budget) -> Result<Image, StageError> {
+        let img = super::decode_image(bytes, budget)
             .map_err(|e| StageError::new(format!("cannot decode the image: {e}")).in_file(file))?;
         let bad = img.data.iter().filter(|v| !v.is_finite()).count();
         if bad > 0 {
@@ -227,7 +235,7 @@ impl super::Kind for Sample {
         &SPEC
     }
 
-    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<AnyHandle>, Diagnostic> {
         let node = plan(p, d)?;
         if let Some(path) = d.props.path("structure") {
             p.export(d).example = Some((path.clone(), d.props.span("structure").unwrap_or(d.name_span)));
@@ -252,10 +260,12 @@ impl super::Kind for Sample {
         let Some(query) = p.part(out.from, "ranking").filter(|_| out.format == super::OutputFormat::Json) else {
             return Ok(None);
         };
-        let stage = FnStage::new("output.ranking", 1, String::new(), |cx| {
-            Ok(super::library::ranking_json(&cx.input::<super::library::Ranking>(0)))
+        let mut inputs = Inputs::new();
+        let ranking = inputs.add(query);
+        let stage = FnStage::keyed("output.ranking", 2, ranking, |cx, &ranking| {
+            Ok(super::library::ranking_json(&cx.get(ranking)))
         });
-        let node = p.add(format!("output {}", out.decl.name), stage, vec![query], vec![]);
+        let node = p.add(format!("output {}", out.decl.name), stage, inputs, vec![]);
         Ok(Some(super::ViewNode { node, exact: false }))
     }
 }

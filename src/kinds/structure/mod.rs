@@ -14,7 +14,7 @@
 
 use super::map::fit;
 use super::{FnStage, Planner};
-use crate::graph::{NodeId, RunCx, StageError};
+use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::{Decl, Diagnostic, Props};
 use crate::raster::{self, Image};
 use crate::synth::rng::Rng;
@@ -41,29 +41,35 @@ pub use codecs::{Generators, Relaxed, Shaped};
 pub use spec::SPEC;
 pub use views::plan_output;
 
-/// Which optional map inputs a stage has, and at which input index.
-#[derive(Clone, Copy, Default)]
+/// The control maps a stage reads.
+#[derive(Clone, Copy, Default, serde::Serialize)]
 struct MapInputs {
-    density: Option<usize>,
-    size: Option<usize>,
-    orientation: Option<usize>,
-    metric: Option<usize>,
+    density: Option<In<Image>>,
+    size: Option<In<Image>>,
+    orientation: Option<In<Image>>,
+    metric: Option<In<Image>>,
+}
+
+/// Which of the declaration's maps a stage reads.
+#[derive(Clone, Copy)]
+enum MapProp {
+    Density,
+    Size,
+    Orientation,
+    Metric,
 }
 
 impl MapInputs {
-    fn add(p: &Planner, props: &Props, inputs: &mut Vec<NodeId>, which: &[&'static str]) -> MapInputs {
+    fn add(p: &Planner, props: &Props, inputs: &mut Inputs, which: &[MapProp]) -> MapInputs {
         let mut m = MapInputs::default();
-        for &name in which {
-            if let Some(map) = props.reference(name) {
-                let slot = Some(inputs.len());
-                inputs.push(p.result(map));
-                match name {
-                    "density" => m.density = slot,
-                    "size" => m.size = slot,
-                    "orientation" => m.orientation = slot,
-                    _ => m.metric = slot,
-                }
-            }
+        for &which in which {
+            let (name, slot) = match which {
+                MapProp::Density => ("density", &mut m.density),
+                MapProp::Size => ("size", &mut m.size),
+                MapProp::Orientation => ("orientation", &mut m.orientation),
+                MapProp::Metric => ("metric_map", &mut m.metric),
+            };
+            *slot = props.reference(name).map(|map| inputs.add(p.result(map)));
         }
         m
     }
@@ -90,7 +96,7 @@ fn prepare_maps(cx: &RunCx, m: MapInputs, w: usize, h: usize) -> Result<Maps, St
     let orientation = match m.orientation {
         None => None,
         Some(i) => {
-            let img = cx.input::<Image>(i);
+            let img = cx.get(i);
             if img.channels != 2 {
                 return Err(StageError::new("the orientation map must be a 2-channel field (e.g. `radial(field = tangential)` or `image(..., channel = vector)`)").at_prop("orientation"));
             }
@@ -109,15 +115,11 @@ fn prepare_maps(cx: &RunCx, m: MapInputs, w: usize, h: usize) -> Result<Maps, St
         }
     };
     Ok(Maps {
-        density: m.density.map(|i| scalar_map(&cx.input::<Image>(i), w, h)),
-        size: m.size.map(|i| scalar_map(&cx.input::<Image>(i), w, h)),
+        density: m.density.map(|i| scalar_map(&cx.get(i), w, h)),
+        size: m.size.map(|i| scalar_map(&cx.get(i), w, h)),
         orientation,
         metric: m.metric.map(|i| {
-            crate::synth::structure::relaxation::controls::metric_map_from_levels(&scalar_map(
-                &cx.input::<Image>(i),
-                w,
-                h,
-            ))
+            crate::synth::structure::relaxation::controls::metric_map_from_levels(&scalar_map(&cx.get(i), w, h))
         }),
     })
 }
@@ -153,7 +155,7 @@ pub(super) fn metric_kind(name: &str) -> MetricKind {
 /// peaks at ≈ 40 bytes per pixel).
 const STRUCTURE_BYTES_PER_PIXEL: f64 = 48.0;
 
-pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
     let props = &d.props;
     let from = props.reference("from").expect("required");
     let Some((path, path_span)) = p.exports(from).example else {
@@ -177,56 +179,19 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
             spec::Either::Second => EllipseFit::Pixels,
         },
     };
-    let budget = p.budget;
-    let analyse = FnStage::new("structure.analyse", 1, serde_json::to_string(&config).expect("config"), move |cx| {
-        let bytes = cx.file(0)?;
-        let s = if raster::io::sniff(&bytes).is_some() {
-            // A painted label image: one colour per region.
-            let img = super::decode_image(&bytes, budget)
-                .map_err(|e| StageError::new(format!("cannot decode the label image: {e}")).in_file(0))?;
-            let ids = colour_ids(&img);
-            analyse_label_image(&ids, img.width, img.height, 1.0, &config)
-        } else {
-            let text = std::str::from_utf8(&bytes).map_err(|_| {
-                StageError::new("the structure file is neither JSON text nor a PNG/EXR label image").in_file(0)
-            })?;
-            analyse_sample(text, &config)
-        }
-        .map_err(|e| StageError::new(e.to_string()).in_file(0))?;
-        for w in &s.warnings {
-            cx.warn(format!("structure sample: {w}"));
-        }
-        if s.originals().is_empty() {
-            return Err(StageError::new("the structure has no interior region to learn from")
-                .in_file(0)
-                .with_help("draw closed regions; regions touching the sample border are left out of the statistics unless `exclude_border_regions = false`"));
-        }
-        Ok(s)
-    });
-    let a1 = p.add(format!("structure {} (analysis)", d.name), analyse, vec![], vec![(path, path_span)]);
-    let surface = p.result(on);
+    let analyse = FnStage::keyed("structure.analyse", 2, config, analyse);
+    let a1 = p.add(format!("structure {} (analysis)", d.name), analyse, Inputs::new(), vec![(path, path_span)]);
+    let surface = p.result::<Plane>(on);
 
-    // S1: generators.
-    let mut inputs = vec![a1, surface];
-    // The density map steers sampling only when centres follow it (S1 reads the
-    // occupancy, size and, for `centers = density`, density maps).
-    let s1_maps: &[&'static str] =
-        if centers(props) == spec::Centers::Density { &["size", "density"] } else { &["size"] };
+    // S1: generators. The density map steers sampling only when centres follow it (S1
+    // reads the occupancy, size and, for `centers = density`, density maps).
+    let mut inputs = Inputs::new();
+    let (analysis, surface_in) = (inputs.add(a1), inputs.add(surface));
+    let s1_maps: &[MapProp] =
+        if centers(props) == spec::Centers::Density { &[MapProp::Size, MapProp::Density] } else { &[MapProp::Size] };
     let maps = MapInputs::add(p, props, &mut inputs, s1_maps);
-    let s1_params = serde_json::json!({
-        "w": w, "h": h, "seed": seed,
-        "mode": props.get("mode"), "scale": props.get("scale"), "centers": props.get("centers"),
-        "shape_sampling": props.get("shape_sampling"), "perturb": props.get("perturb"), "swaps": props.get("swaps"),
-        "size_mode": size_mode(props), "occupancy_remove": props.get("occupancy_remove"),
-        "density": if centers(props) == spec::Centers::Density {
-            serde_json::json!([props.get("density_eps"), props.get("density_gamma")])
-        } else {
-            serde_json::Value::Null
-        },
-    })
-    .to_string();
-    let opts = SampleOptions::from(props, p.budget);
-    let s1 = FnStage::new("structure.sample", 2, s1_params, move |cx| sample_generators(cx, &opts, maps, w, h, seed));
+    let sampling = Sampling { analysis, surface: surface_in, maps, w, h, seed, options: SampleOptions::from(props) };
+    let s1 = FnStage::keyed("structure.sample", 3, sampling, sample_generators);
     let s1 = p.add(format!("structure {} (sampling)", d.name), s1, inputs, vec![]);
 
     // S2: Lloyd; with edits, S1e applies them to the relaxed generators and Lloyd runs
@@ -234,42 +199,30 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
     let mut s2 = plan_lloyd(p, d, s1, surface, w, h, "lloyd");
     let edits = convert_edits(props)?;
     if !edits.is_empty() {
-        let key = serde_json::to_string(&edits).expect("edits serialise");
-        let s1e = FnStage::new("structure.edits", 1, key, move |cx| {
-            let r = cx.input::<Relaxed>(0);
-            let plane = cx.input::<Plane>(1);
-            let allowed = allowed_from_occupancy(plane.occupancy.plane(0));
-            let target = Target { width: w, height: h, allowed: Some(&allowed) };
-            let mut g = edits::Generators { ellipses: r.generators.clone(), frozen: r.frozen.clone() };
-            for (i, e) in edits.iter().enumerate() {
-                edits::apply_edit(&mut g, e, &target).map_err(|err| {
-                    StageError::new(format!("edit {} ({}): {err}", i + 1, edit_name(e))).at_prop("edits")
-                })?;
-            }
-            let n = g.ellipses.len();
-            Ok(Generators { set: g, target_count: n, dropped: 0 })
-        });
-        let s1e = p.add(format!("structure {} (edits)", d.name), s1e, vec![s2, surface], vec![]);
+        let mut inputs = Inputs::new();
+        let editing = Editing { relaxed: inputs.add(s2), surface: inputs.add(surface), edits, w, h };
+        let s1e = FnStage::keyed("structure.edits", 2, editing, apply_edits);
+        let s1e = p.add(format!("structure {} (edits)", d.name), s1e, inputs, vec![]);
         s2 = plan_lloyd(p, d, s1e, surface, w, h, "lloyd after edits");
     }
 
     // S3: polygonisation of the label raster.
     let block = props.block("polygonize");
-    let pparams = PolygonizeParams {
+    let params = PolygonizeParams {
         tolerance: block.num("tolerance"),
         min_edge: block.num("min_edge"),
         straight_deg: block.num("straight").to_degrees(),
     };
-    let s3 = FnStage::new("structure.polygonize", 1, serde_json::to_string(&pparams).expect("params"), move |cx| {
-        let r = cx.input::<Relaxed>(0);
-        Ok(polygonize::polygonize(&r.labels, &pparams))
+    let mut inputs = Inputs::new();
+    let polygonizing = Polygonizing { relaxed: inputs.add(s2), params };
+    let s3 = FnStage::keyed("structure.polygonize", 2, polygonizing, |cx, s| {
+        Ok(polygonize::polygonize(&cx.get(s.relaxed).labels, &s.params))
     });
-    let s3 = p.add(format!("structure {} (polygonize)", d.name), s3, vec![s2], vec![]);
+    let s3 = p.add(format!("structure {} (polygonize)", d.name), s3, inputs, vec![]);
 
     // S4: shape optimisation towards the closest original shapes.
     let shapes = props.block("shapes");
-    let scale = props.num("scale");
-    let sparams = ShapeParams {
+    let params = ShapeParams {
         step: shapes.num("step"),
         max_iters: if shapes.bool("enabled") { shapes.int("iterations") as usize } else { 0 },
         reassociate_every: shapes.int("reassociate") as usize,
@@ -280,50 +233,121 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<NodeId, Diagnostic> {
         straight_deg: block.num("straight").to_degrees(),
         ..ShapeParams::default()
     };
-    let key = serde_json::json!({
-        "scale": scale, "enabled": shapes.bool("enabled"), "params": format!("{sparams:?}"), "w": w, "h": h,
-    })
-    .to_string();
-    let s4 = FnStage::new("structure.shapes", 1, key, move |cx| {
-        let m = cx.input::<Polygonization>(0);
-        let sample = cx.input::<SampleStructure>(1);
-        if sparams.max_iters == 0 {
-            return Ok(Shaped { mesh: m.mesh.clone(), placed: vec![None; m.mesh.regions.len()], errors: vec![] });
-        }
-        // Originals at the structure's scale: the ±20 % area rule compares like with like.
-        let originals: Vec<Vec<Point>> = sample
-            .originals()
-            .into_iter()
-            .map(|(poly, _)| poly.iter().map(|p| [p[0] * scale, p[1] * scale]).collect())
-            .collect();
-        let r = optimize::optimize_shapes(
-            &m.mesh,
-            &m.on_occupancy_border,
-            &m.on_domain_border,
-            (w as f64, h as f64),
-            &originals,
-            &sparams,
-        );
-        if r.fallback_associations > 0 || r.failed_associations > 0 {
-            cx.warn(format!(
-                "{} region(s) matched an original outside ±{:.0} % area, {} matched none",
-                r.fallback_associations,
-                sparams.area_tol * 100.0,
-                r.failed_associations
-            ));
-        }
-        Ok(Shaped {
-            placed: r.associations.iter().map(|a| a.as_ref().map(|a| a.placed.clone())).collect(),
-            mesh: r.mesh,
-            errors: r.errors,
-        })
-    });
-    let s4 = p.add(format!("structure {} (shapes)", d.name), s4, vec![s3, a1], vec![]);
+    let mut inputs = Inputs::new();
+    let shaping = Shaping { mesh: inputs.add(s3), analysis: inputs.add(a1), scale: props.num("scale"), params, w, h };
+    let s4 = FnStage::keyed("structure.shapes", 2, shaping, optimise_shapes);
+    let s4 = p.add(format!("structure {} (shapes)", d.name), s4, inputs, vec![]);
 
-    p.parts.insert((d.name.clone(), "lloyd"), s2);
-    p.parts.insert((d.name.clone(), "analysis"), a1);
-    p.parts.insert((d.name.clone(), "mesh"), s4);
+    p.set_part(d, "lloyd", s2);
+    p.set_part(d, "analysis", a1);
+    p.set_part(d, "mesh", s4);
     Ok(s4)
+}
+
+/// A1: the sample's structure file (JSON or a painted label image) analysed.
+fn analyse(cx: &RunCx, config: &StatsConfig) -> Result<SampleStructure, StageError> {
+    let bytes = cx.file(0)?;
+    let s = if raster::io::sniff(&bytes).is_some() {
+        // A painted label image: one colour per region.
+        let img = super::decode_image(&bytes, cx.budget())
+            .map_err(|e| StageError::new(format!("cannot decode the label image: {e}")).in_file(0))?;
+        let ids = colour_ids(&img);
+        analyse_label_image(&ids, img.width, img.height, 1.0, config)
+    } else {
+        let text = std::str::from_utf8(&bytes).map_err(|_| {
+            StageError::new("the structure file is neither JSON text nor a PNG/EXR label image").in_file(0)
+        })?;
+        analyse_sample(text, config)
+    }
+    .map_err(|e| StageError::new(e.to_string()).in_file(0))?;
+    for w in &s.warnings {
+        cx.warn(format!("structure sample: {w}"));
+    }
+    if s.originals().is_empty() {
+        return Err(StageError::new("the structure has no interior region to learn from")
+            .in_file(0)
+            .with_help("draw closed regions; regions touching the sample border are left out of the statistics unless `exclude_border_regions = false`"));
+    }
+    Ok(s)
+}
+
+/// What S1e works from: the relaxed generators, the surface, and the edits in order.
+#[derive(serde::Serialize)]
+struct Editing {
+    relaxed: In<Relaxed>,
+    surface: In<Plane>,
+    edits: Vec<Edit>,
+    w: usize,
+    h: usize,
+}
+
+fn apply_edits(cx: &RunCx, s: &Editing) -> Result<Generators, StageError> {
+    let r = cx.get(s.relaxed);
+    let plane = cx.get(s.surface);
+    let allowed = allowed_from_occupancy(plane.occupancy.plane(0));
+    let target = Target { width: s.w, height: s.h, allowed: Some(&allowed) };
+    let mut g = edits::Generators { ellipses: r.generators.clone(), frozen: r.frozen.clone() };
+    for (i, e) in s.edits.iter().enumerate() {
+        edits::apply_edit(&mut g, e, &target)
+            .map_err(|err| StageError::new(format!("edit {} ({}): {err}", i + 1, edit_name(e))).at_prop("edits"))?;
+    }
+    let n = g.ellipses.len();
+    Ok(Generators { set: g, target_count: n, dropped: 0 })
+}
+
+/// What S3 works from.
+#[derive(serde::Serialize)]
+struct Polygonizing {
+    relaxed: In<Relaxed>,
+    params: PolygonizeParams,
+}
+
+/// What S4 works from: the polygonised mesh, the sample's originals at the structure's
+/// `scale`, and the optimisation's parameters.
+#[derive(serde::Serialize)]
+struct Shaping {
+    mesh: In<Polygonization>,
+    analysis: In<SampleStructure>,
+    scale: f64,
+    params: ShapeParams,
+    w: usize,
+    h: usize,
+}
+
+fn optimise_shapes(cx: &RunCx, s: &Shaping) -> Result<Shaped, StageError> {
+    let m = cx.get(s.mesh);
+    let sample = cx.get(s.analysis);
+    let sparams = &s.params;
+    if sparams.max_iters == 0 {
+        return Ok(Shaped { mesh: m.mesh.clone(), placed: vec![None; m.mesh.regions.len()], errors: vec![] });
+    }
+    // Originals at the structure's scale: the ±20 % area rule compares like with like.
+    let originals: Vec<Vec<Point>> = sample
+        .originals()
+        .into_iter()
+        .map(|(poly, _)| poly.iter().map(|p| [p[0] * s.scale, p[1] * s.scale]).collect())
+        .collect();
+    let r = optimize::optimize_shapes(
+        &m.mesh,
+        &m.on_occupancy_border,
+        &m.on_domain_border,
+        (s.w as f64, s.h as f64),
+        &originals,
+        sparams,
+    );
+    if r.fallback_associations > 0 || r.failed_associations > 0 {
+        cx.warn(format!(
+            "{} region(s) matched an original outside ±{:.0} % area, {} matched none",
+            r.fallback_associations,
+            sparams.area_tol * 100.0,
+            r.failed_associations
+        ));
+    }
+    Ok(Shaped {
+        placed: r.associations.iter().map(|a| a.as_ref().map(|a| a.placed.clone())).collect(),
+        mesh: r.mesh,
+        errors: r.errors,
+    })
 }
 
 fn edit_name(e: &Edit) -> &'static str {
@@ -361,7 +385,8 @@ fn convert_edits(props: &Props) -> Result<Vec<Edit>, Diagnostic> {
             },
             "freeze" => Edit::Freeze { id: id(), frozen: true },
             "move" => Edit::Move { id: id(), to: at("to") },
-            _ => Edit::Set { id: id(), a: a.opt_num("a"), b: a.opt_num("b"), theta: a.opt_num("angle") },
+            "set" => Edit::Set { id: id(), a: a.opt_num("a"), b: a.opt_num("b"), theta: a.opt_num("angle") },
+            other => unreachable!("edit `{other}` is in the schema but not converted"),
         };
         out.push(edit);
     }
@@ -381,7 +406,7 @@ fn centers(props: &Props) -> spec::Centers {
 }
 
 /// What S1 needs from the declaration.
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize)]
 struct SampleOptions {
     statistical: bool,
     scale: f64,
@@ -392,8 +417,6 @@ struct SampleOptions {
     size_mode: SizeMode,
     remove: RemoveMode,
     density: DensityParams,
-    /// Most regions the memory budget holds ([`REGION_BYTES`] each).
-    max_regions: usize,
 }
 
 /// Memory a region costs along the structure's stages: its generator, Lloyd's moments,
@@ -402,9 +425,8 @@ struct SampleOptions {
 const REGION_BYTES: f64 = 2048.0;
 
 impl SampleOptions {
-    fn from(props: &Props, budget: crate::graph::Budget) -> Self {
+    fn from(props: &Props) -> Self {
         SampleOptions {
-            max_regions: (budget.bytes as f64 / REGION_BYTES) as usize,
             statistical: spec::MODES.get(props.enumeration("mode")) == spec::Mode::Statistical,
             scale: props.num("scale"),
             centers: centers(props),
@@ -425,17 +447,25 @@ impl SampleOptions {
     }
 }
 
-fn sample_generators(
-    cx: &RunCx,
-    o: &SampleOptions,
-    m: MapInputs,
+/// What S1 works from.
+#[derive(serde::Serialize)]
+struct Sampling {
+    analysis: In<SampleStructure>,
+    surface: In<Plane>,
+    maps: MapInputs,
     w: usize,
     h: usize,
     seed: u64,
-) -> Result<Generators, StageError> {
-    let sample = cx.input::<SampleStructure>(0);
-    let plane = cx.input::<Plane>(1);
-    let maps = prepare_maps(cx, m, w, h)?;
+    options: SampleOptions,
+}
+
+fn sample_generators(cx: &RunCx, s: &Sampling) -> Result<Generators, StageError> {
+    let (o, w, h) = (&s.options, s.w, s.h);
+    let sample = cx.get(s.analysis);
+    let plane = cx.get(s.surface);
+    let maps = prepare_maps(cx, s.maps, w, h)?;
+    // Most regions the memory budget holds (`REGION_BYTES` each).
+    let max_regions = (cx.budget().bytes as f64 / REGION_BYTES) as usize;
     let controls = Controls {
         density: maps.density.as_deref(),
         density_params: o.density,
@@ -444,7 +474,7 @@ fn sample_generators(
         size_mode: o.size_mode,
         ..Controls::default()
     };
-    let mut rng = Rng::new(seed);
+    let mut rng = Rng::new(s.seed);
     let originals: Vec<Ellipse> = sample.originals().into_iter().map(|(_, e)| e).collect();
     if !o.statistical {
         // Trivial synthesis: the sample's own regions, mapped onto the target, perturbed
@@ -467,7 +497,7 @@ fn sample_generators(
         mean_area: model.mean_region_area,
         remove: o.remove,
         max_retries: 32,
-        max_regions: o.max_regions,
+        max_regions,
     };
     let axes_hist = model.ellipse_axes.histogram.clone();
     let angle_hist = model.ellipse_angle.histogram.clone();
@@ -563,11 +593,33 @@ fn too_many_regions(e: &synthesis::TooManyRegions, o: &SampleOptions) -> StageEr
     }
 }
 
-/// S2 (and S2 after edits): anisotropic Lloyd over the generators of node `gens`.
-fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize, h: usize, tag: &str) -> NodeId {
+/// What S2 works from.
+#[derive(serde::Serialize)]
+struct Relaxing {
+    generators: In<Generators>,
+    surface: In<Plane>,
+    maps: MapInputs,
+    w: usize,
+    h: usize,
+    lloyd: LloydParams,
+    density: DensityParams,
+    orientation_mode: OrientationMode,
+    size_mode: SizeMode,
+}
+
+/// S2 (and S2 after edits): anisotropic Lloyd over the generators `from` (sampled or edited).
+fn plan_lloyd(
+    p: &mut Planner,
+    d: &Decl,
+    from: Handle<Generators>,
+    surface: Handle<Plane>,
+    w: usize,
+    h: usize,
+    tag: &str,
+) -> Handle<Relaxed> {
     let props = &d.props;
     let block = props.block("lloyd");
-    let params = LloydParams {
+    let lloyd = LloydParams {
         max_iters: block.int("iterations") as usize,
         tol: block.num("tolerance"),
         resolution: block.num("resolution"),
@@ -581,40 +633,44 @@ fn plan_lloyd(p: &mut Planner, d: &Decl, gens: NodeId, surface: NodeId, w: usize
         spec::Either::First => OrientationMode::Region,
         spec::Either::Second => OrientationMode::Center,
     };
-    let mut inputs = vec![gens, surface];
-    let maps = MapInputs::add(p, props, &mut inputs, &["density", "orientation", "metric_map", "size"]);
-    let size_mode = size_mode(props);
-    let key = serde_json::json!({
-        "w": w, "h": h, "lloyd": params, "density": density, "orientation_mode": orientation_mode,
-        "size_mode": size_mode,
-    })
-    .to_string();
-    let stage = FnStage::new("structure.lloyd", 3, key, move |cx| {
-        let g = cx.input::<Generators>(0);
-        let plane = cx.input::<Plane>(1);
-        let m = prepare_maps(cx, maps, w, h)?;
-        let controls = Controls {
-            density: m.density.as_deref(),
-            density_params: density,
-            occupancy: Some(plane.occupancy.plane(0)),
-            orientation: m.orientation.as_ref(),
-            orientation_mode,
-            metric: m.metric.as_deref(),
-            size: m.size.as_deref(),
-            size_mode,
-        };
-        let r = lloyd::lloyd(w, h, &g.set.ellipses, Some(&g.set.frozen), &controls, &params);
-        Ok(Relaxed {
-            generators: r.generators,
-            sized: r.sized,
-            frozen: r.frozen,
-            labels: r.labels,
-            iterations: r.iterations,
-            converged: r.converged,
-            orphans: r.orphans,
-        })
-    });
+    let mut inputs = Inputs::new();
+    let (generators, surface) = (inputs.add(from), inputs.add(surface));
+    let maps = MapInputs::add(
+        p,
+        props,
+        &mut inputs,
+        &[MapProp::Density, MapProp::Orientation, MapProp::Metric, MapProp::Size],
+    );
+    let relaxing =
+        Relaxing { generators, surface, maps, w, h, lloyd, density, orientation_mode, size_mode: size_mode(props) };
+    let stage = FnStage::keyed("structure.lloyd", 4, relaxing, relax);
     p.add(format!("structure {} ({tag})", d.name), stage, inputs, vec![])
+}
+
+fn relax(cx: &RunCx, s: &Relaxing) -> Result<Relaxed, StageError> {
+    let g = cx.get(s.generators);
+    let plane = cx.get(s.surface);
+    let m = prepare_maps(cx, s.maps, s.w, s.h)?;
+    let controls = Controls {
+        density: m.density.as_deref(),
+        density_params: s.density,
+        occupancy: Some(plane.occupancy.plane(0)),
+        orientation: m.orientation.as_ref(),
+        orientation_mode: s.orientation_mode,
+        metric: m.metric.as_deref(),
+        size: m.size.as_deref(),
+        size_mode: s.size_mode,
+    };
+    let r = lloyd::lloyd(s.w, s.h, &g.set.ellipses, Some(&g.set.frozen), &controls, &s.lloyd);
+    Ok(Relaxed {
+        generators: r.generators,
+        sized: r.sized,
+        frozen: r.frozen,
+        labels: r.labels,
+        iterations: r.iterations,
+        converged: r.converged,
+        orphans: r.orphans,
+    })
 }
 
 /// The structure kind: structure synthesis from an example.
@@ -625,14 +681,16 @@ impl super::Kind for Structure {
         &SPEC
     }
 
-    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<NodeId>, Diagnostic> {
-        plan(p, d).map(Some)
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<AnyHandle>, Diagnostic> {
+        plan(p, d).map(|h| Some(h.erase()))
     }
 
     fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
+        use super::View;
         let d = out.decl;
         // Region ids and their colours are identities: an id off by one is a regression.
-        let exact = matches!(out.view, "labels" | "labels16") || (out.view == "auto" && !out.format.is_text());
+        let exact =
+            matches!(out.view, View::Labels | View::Labels16) || (out.view == View::Auto && !out.format.is_text());
         let node = plan_output(p, d, out.from, out.format, out.view, d.props.num("edge_width"))?;
         Ok(Some(super::ViewNode { node, exact }))
     }

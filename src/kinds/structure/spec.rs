@@ -10,7 +10,8 @@ pub enum Mode {
 }
 
 /// `centers`: where generators are placed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Centers {
     Uniform,
     Density,

@@ -5,7 +5,7 @@ use crate::synth::structure::shapes::associate::{AssociateParams, Association};
 use crate::synth::structure::types::Mesh;
 
 /// Options of [`optimize_shapes`] (`shapes.*`, `polygonize.min_edge`; [references: frasson §3.5.4], tessera's choice).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ShapeParams {
     /// Fraction of the mean target vector applied per iteration (`shapes.step`, 0.2).
     pub step: f64,
@@ -51,7 +51,8 @@ pub struct ShapeParams {
 }
 
 /// How the vertices of a generated region are linked to its placed original.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum TargetRule {
     /// Algorithm 2 verbatim: every vertex goes to the closest vertex of the placed original.
     ClosestVertex,
