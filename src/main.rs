@@ -34,6 +34,9 @@ struct Cli {
     /// tessera.toml, else half the machine's memory.
     #[arg(long, value_name = "SIZE", global = true, value_parser = commands::parse_bytes)]
     max_memory: Option<u64>,
+    /// Build every scene with this seed instead of its own (to explore variations).
+    #[arg(long, global = true)]
+    seed: Option<u64>,
 }
 
 #[derive(Subcommand)]
@@ -143,6 +146,7 @@ fn main() -> ExitCode {
         report: cli.report,
         quiet: cli.quiet,
         max_memory: cli.max_memory,
+        seed: cli.seed,
     };
     let result = match cli.command {
         Command::Build { paths } => commands::scenes(&g, &paths, Mode::Build),

@@ -63,7 +63,7 @@ fn mutated_scenes_never_panic() {
         let src = std::fs::read_to_string(root.join(format!("scenes/{name}.tess"))).expect("scene");
         for _ in 0..1500 {
             let text = mutate(&src, &mut state);
-            let opts = lang::Options { sets: &[], registry: &registry };
+            let opts = lang::Options { sets: &[], sets_may_miss: false, seed: None, registry: &registry };
             let result = std::panic::catch_unwind(|| {
                 let _ = lang::fmt::format_source(&text);
                 if let Ok(scene) = lang::compile(Path::new("scene.tess"), &Mem(text.clone()), &opts) {

@@ -1,6 +1,6 @@
 //! `scene { seed size }`: settings shared by every declaration.
 
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Setting, Ty};
+use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Setting, Ty};
 
 pub static SPEC: KindSpec = KindSpec {
     name: "scene",
@@ -8,6 +8,7 @@ pub static SPEC: KindSpec = KindSpec {
     naming: Naming::Anonymous,
     produces: &[],
     settings: &[(Setting::Seed, "seed"), (Setting::Size, "size")],
+    extent: Extent::Scene,
     props: &[
         PropSpec {
             name: "seed",

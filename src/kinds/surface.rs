@@ -2,7 +2,7 @@
 
 use super::{FnStage, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Value};
+use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Ty, Value};
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::Image;
 use crate::synth::surface::Plane;
@@ -13,6 +13,7 @@ pub static SPEC: KindSpec = KindSpec {
     naming: Naming::Ident,
     produces: &[Value::Plane],
     settings: &[],
+    extent: Extent::Prop("plane"),
     props: &[
         PropSpec { name: "plane", ty: Ty::Size, default: Default::SceneSize, doc: "Size of the plane in pixels." },
         PropSpec {

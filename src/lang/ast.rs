@@ -96,14 +96,61 @@ pub struct Value {
 
 #[derive(Clone, Debug)]
 pub enum ValueKind {
-    Number { value: f64, text: String, unit: Option<String> },
-    Size { w: f64, w_text: String, h: f64, h_text: String },
+    Number {
+        value: f64,
+        text: String,
+        unit: Option<String>,
+    },
+    Size {
+        w: f64,
+        w_text: String,
+        h: f64,
+        h_text: String,
+    },
     Bool(bool),
     Str(String),
     Vector(Vec<Value>),
     Ident(String),
-    Call { name: Ident, args: Vec<Arg> },
+    Call {
+        name: Ident,
+        args: Vec<Arg>,
+    },
     Block(Block),
+    /// Operands joined by operators of one precedence level, evaluated left to right
+    /// (`a + b - c`, or `a * b / c`); a level binds tighter when it is an operand.
+    Chain {
+        first: Box<Value>,
+        rest: Vec<(Op, Value)>,
+    },
+    /// `-x` where `x` is not a number literal (`-3` is a `Number`).
+    Neg(Box<Value>),
+    /// `( ... )`, kept so that `tessera fmt` writes the expression as it was written.
+    Paren(Box<Value>),
+    /// `scene.width`, `surface.height`, `facade.width`: a size of the scene or of a declaration.
+    Field {
+        base: Ident,
+        field: Ident,
+    },
+}
+
+/// An arithmetic operator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Op {
+    Add,
+    Sub,
+    Mul,
+    Div,
+}
+
+impl Op {
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Op::Add => "+",
+            Op::Sub => "-",
+            Op::Mul => "*",
+            Op::Div => "/",
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -135,6 +182,8 @@ impl ValueKind {
             ValueKind::Ident(_) => "a name",
             ValueKind::Call { .. } => "a constructor call",
             ValueKind::Block(_) => "a block",
+            ValueKind::Chain { .. } | ValueKind::Neg(_) | ValueKind::Paren(_) => "an expression",
+            ValueKind::Field { .. } => "a size of the scene or a declaration",
         }
     }
 }

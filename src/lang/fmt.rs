@@ -191,6 +191,29 @@ impl Formatter<'_> {
                 self.out.push(')');
             }
             ValueKind::Block(b) => self.block(b, depth.saturating_sub(1)),
+            ValueKind::Chain { first, rest } => {
+                self.value(first, depth);
+                for (op, v) in rest {
+                    self.out.push(' ');
+                    self.out.push_str(op.symbol());
+                    self.out.push(' ');
+                    self.value(v, depth);
+                }
+            }
+            ValueKind::Neg(v) => {
+                self.out.push('-');
+                self.value(v, depth);
+            }
+            ValueKind::Paren(v) => {
+                self.out.push('(');
+                self.value(v, depth);
+                self.out.push(')');
+            }
+            ValueKind::Field { base, field } => {
+                self.out.push_str(&base.text);
+                self.out.push('.');
+                self.out.push_str(&field.text);
+            }
         }
     }
 }

@@ -232,6 +232,8 @@ pub struct Scene {
     pub size_span: Option<Span>,
     pub decls: Vec<Decl>,
     pub sources: SourceMap,
+    /// The names of its `param`s, sorted (which `--set`s it takes).
+    pub params: Vec<String>,
 }
 
 impl Scene {

@@ -270,6 +270,9 @@ fn describe_rule(rule: &Rule) -> Option<&'static str> {
         Rule::number | Rule::quantity => "a number",
         Rule::size => "a size",
         Rule::vector => "a vector",
+        Rule::sum | Rule::product | Rule::unary | Rule::atom | Rule::paren => "a value",
+        Rule::field => "a name",
+        Rule::add_op | Rule::mul_op | Rule::neg => "an operator",
         Rule::call => "a call",
         Rule::unit => "a unit",
         Rule::boolean => "`true` or `false`",
@@ -367,6 +370,41 @@ impl Builder {
         let span = self.span(&p);
         let inner = if p.as_rule() == Rule::value { p.into_inner().next().expect("value") } else { p };
         let kind = match inner.as_rule() {
+            // A chain of one operand is that operand: `12 px` stays a number, `a` a name.
+            Rule::sum | Rule::product => {
+                let mut it = inner.into_inner();
+                let first = self.value(it.next().expect("operand"));
+                let mut rest = Vec::new();
+                while let (Some(op), Some(operand)) = (it.next(), it.next()) {
+                    let op = match op.as_str() {
+                        "+" => Op::Add,
+                        "-" => Op::Sub,
+                        "*" => Op::Mul,
+                        _ => Op::Div,
+                    };
+                    rest.push((op, self.value(operand)));
+                }
+                if rest.is_empty() {
+                    return first;
+                }
+                ValueKind::Chain { first: Box::new(first), rest }
+            }
+            Rule::unary => {
+                let mut it = inner.into_inner();
+                let first = it.next().expect("operand");
+                if first.as_rule() != Rule::neg {
+                    return self.value(first);
+                }
+                ValueKind::Neg(Box::new(self.value(it.next().expect("negated operand"))))
+            }
+            Rule::atom => return self.value(inner.into_inner().next().expect("atom")),
+            Rule::paren => ValueKind::Paren(Box::new(self.value(inner.into_inner().next().expect("inner")))),
+            Rule::field => {
+                let mut it = inner.into_inner();
+                let base = self.ident(it.next().expect("base"));
+                let field = self.ident(it.next().expect("field"));
+                ValueKind::Field { base, field }
+            }
             Rule::call => {
                 let mut it = inner.into_inner();
                 let name = self.ident(it.next().expect("call name"));

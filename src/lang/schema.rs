@@ -25,6 +25,22 @@ pub struct KindSpec {
     pub produces: &'static [Value],
     /// Properties that set scene-wide settings (the scene block's `seed` and `size`).
     pub settings: &'static [(Setting, &'static str)],
+    /// What relative lengths (`40%`, `surface.width`) of a declaration of this kind are of.
+    pub extent: Extent,
+}
+
+/// The size a declaration's relative lengths are taken of: `40%` of its width or height (of
+/// the shorter side for a length with no axis), and what `surface.width` names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Extent {
+    /// It has none: relative lengths are refused.
+    None,
+    /// The scene's `size`.
+    Scene,
+    /// Its own size property (which defaults to the scene's size).
+    Prop(&'static str),
+    /// The extent of the declaration its reference property names; the scene's when absent.
+    Ref(&'static str),
 }
 
 /// What a reference to a declaration yields. Kinds say what they produce and properties

@@ -33,6 +33,10 @@ pub struct Project {
     /// In-memory artifacts kept between builds (watch mode).
     pub memory: Option<MemoryCache>,
     pub sets: Vec<(String, String)>,
+    /// Whether a scene may lack a param of `sets` (see `lang::Options::sets_may_miss`).
+    pub sets_may_miss: bool,
+    /// Instead of every scene's `seed`.
+    pub seed: Option<u64>,
     pub progress: bool,
     /// The memory budget planning and stages are held to (see `set_budget`).
     pub budget: Budget,
@@ -98,7 +102,18 @@ impl Project {
         let cache = Cache::new(root.join(&manifest.paths.cache));
         let budget = manifest.limits.max_memory.map(Budget::new).unwrap_or_else(Budget::from_machine);
         let world = World::with_max_file(budget.max_file());
-        Ok(Project { root, manifest, world, cache, memory: None, sets: Vec::new(), progress: true, budget })
+        Ok(Project {
+            root,
+            manifest,
+            world,
+            cache,
+            memory: None,
+            sets: Vec::new(),
+            sets_may_miss: false,
+            seed: None,
+            progress: true,
+            budget,
+        })
     }
 
     /// Holds planning, stages and file reads to `budget`.
@@ -143,7 +158,8 @@ impl Project {
     /// Parses, resolves and plans a scene.
     pub fn compile(&self, path: &Path) -> Result<(Scene, Plan), Failed> {
         let registry = kinds::registry();
-        let opts = lang::Options { sets: &self.sets, registry: &registry };
+        let opts =
+            lang::Options { sets: &self.sets, sets_may_miss: self.sets_may_miss, seed: self.seed, registry: &registry };
         let scene = lang::compile(path, &WorldLoader(&self.world), &opts)?;
         match kinds::plan_with(&scene, &kinds::PlanOptions { budget: self.budget }) {
             Ok(plan) => Ok((scene, plan)),

@@ -1,6 +1,8 @@
 //! The schema of `layer` declarations.
 
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, NON_NEG, POSITIVE, UNIT};
+use crate::lang::schema::{
+    Default, Extent, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, NON_NEG, POSITIVE, UNIT,
+};
 use crate::synth::{blend, quilt};
 
 /// Whether quilting seams are kept or removed in the gradient domain.
@@ -61,6 +63,7 @@ pub static SPEC: KindSpec = KindSpec {
     naming: Naming::Ident,
     produces: &[Value::Image],
     settings: &[],
+    extent: Extent::Ref("on"),
     props: &[
         // Quilting (Efros–Freeman, with Dong's and Frasson's extensions).
         prop("quilt", Ty::Ref(&[Value::Image]), Default::Absent, "Grow this image (a sample, or another layer) by image quilting."),

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use super::{Bytes, ColorSpace, Encoded, FnStage, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::ir::Call;
-use crate::lang::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value};
+use crate::lang::schema::{CallSpec, Default, Extent, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value};
 use crate::lang::{Decl, Diagnostic, Val};
 use crate::raster::{self, Image};
 use crate::synth::blend::mask::Luma;
@@ -49,6 +49,7 @@ pub static SPEC: KindSpec = KindSpec {
     naming: Naming::Ident,
     produces: &[Value::Library],
     settings: &[],
+    extent: Extent::None,
     props: &[
         prop("dir", Ty::Dir(EXTENSIONS), Default::Required, "The directory, relative to this scene file (not recursive)."),
         prop(

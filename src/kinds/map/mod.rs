@@ -8,7 +8,7 @@ use super::{FnStage, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::ir::Call;
 use crate::lang::schema::{
-    CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, ANY, NON_NEG, POSITIVE, UNIT,
+    CallSpec, Default, Extent, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, ANY, NON_NEG, POSITIVE, UNIT,
 };
 use crate::lang::{Decl, Diagnostic, Val};
 use crate::raster::{self, Image};
@@ -160,6 +160,7 @@ pub static SPEC: KindSpec = KindSpec {
     naming: Naming::Ident,
     produces: &[Value::Map],
     settings: &[],
+    extent: Extent::Prop("size"),
     props: &[
         PropSpec {
             name: "from",

@@ -3,7 +3,7 @@
 
 use super::{Bytes, ColorSpace, FnStage, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, NodeId, StageError};
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, Value, POSITIVE, UNIT};
+use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Ty, Unit, Value, POSITIVE, UNIT};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::{self, Image};
@@ -15,6 +15,7 @@ pub static SPEC: KindSpec = KindSpec {
     naming: Naming::Path,
     produces: &[],
     settings: &[],
+    extent: Extent::None,
     props: &[
         PropSpec {
             name: "from",

@@ -4,7 +4,7 @@
 
 use super::{Bytes, FnStage, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
-use crate::lang::schema::{Default, KindSpec, Naming, PropSpec, Ty, Unit, Value, ANY};
+use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Ty, Unit, Value, ANY};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic, Val};
 use crate::raster::{self, Image};
@@ -19,6 +19,7 @@ pub static SPEC: KindSpec = KindSpec {
     naming: Naming::Ident,
     produces: &[Value::Image, Value::Example],
     settings: &[],
+    extent: Extent::None,
     props: &[
         PropSpec {
             name: "image",

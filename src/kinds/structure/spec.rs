@@ -1,6 +1,8 @@
 //! The schema of `structure` declarations : the parameters of [references: frasson §3].
 
-use crate::lang::schema::{CallSpec, Default, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, ANY, POSITIVE, UNIT};
+use crate::lang::schema::{
+    CallSpec, Default, Extent, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, ANY, POSITIVE, UNIT,
+};
 
 /// `mode`: how region shapes are drawn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -171,6 +173,7 @@ pub static SPEC: KindSpec = KindSpec {
     naming: Naming::Ident,
     produces: &[Value::Structure],
     settings: &[],
+    extent: Extent::Ref("on"),
     props: &[
         p("from", Ty::Ref(&[Value::Example]), Default::Required, "The sample whose `structure` file is analysed."),
         p("on", Ty::Ref(&[Value::Plane]), Default::Required, "The target surface; its occupancy map forbids regions."),

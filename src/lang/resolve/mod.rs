@@ -2,8 +2,10 @@
 //!
 //! This file runs the passes in order; they live in `load` (files and imports), `namespace`
 //! (the checker's state, declarations, params and `--set`), `props` (blocks, defaults and
-//! constructor calls), `values` (each value against its type) and `refs` (references, cycles).
+//! constructor calls), `values` (each value against its type), `expr` (arithmetic and
+//! relative lengths) and `refs` (references, cycles).
 
+mod expr;
 mod load;
 mod namespace;
 mod props;
@@ -32,8 +34,11 @@ pub fn compile(root: &Path, loader: &dyn Loader, opts: &Options) -> Result<Scene
     let Cx { sources, mut errors, files } = cx;
     let mut checker = Checker::new(opts, sources, loader);
     checker.collect(&files);
-    checker.apply_sets(opts.sets);
+    checker.apply_sets(opts.sets, opts.sets_may_miss);
     checker.check_all();
+    if let Some(seed) = opts.seed {
+        checker.seed = seed;
+    }
     errors.append(&mut checker.errors);
     if errors.is_empty() {
         checker.check_cycles(&mut errors);
@@ -41,7 +46,10 @@ pub fn compile(root: &Path, loader: &dyn Loader, opts: &Options) -> Result<Scene
     if !errors.is_empty() {
         return Err(Diagnostics::new(errors, checker.sources));
     }
+    let mut params: Vec<String> = checker.params.keys().cloned().collect();
+    params.sort();
     Ok(Scene {
+        params,
         root,
         seed: checker.seed,
         size: checker.size,

@@ -16,6 +16,11 @@ use crate::lang::source::{FileId, SourceMap, Span};
 pub struct Options<'a> {
     /// `--set name=value` overrides of `param` declarations.
     pub sets: &'a [(String, String)],
+    /// Whether a `--set` of a param the scene does not declare is skipped rather than an
+    /// error (a command over many scenes refuses only a set that no scene takes).
+    pub sets_may_miss: bool,
+    /// Instead of the scene's `seed`, for exploring variations.
+    pub seed: Option<u64>,
     pub registry: &'a [&'static KindSpec],
 }
 
@@ -49,6 +54,10 @@ pub(super) struct Checker<'a> {
     /// References made by the declaration being checked: (name, span).
     pub(super) deps: Vec<(String, Span)>,
     pub(super) ref_spans: BTreeMap<String, Vec<(String, Span)>>,
+    /// What relative lengths of the declaration being checked are of (`None`: refused).
+    pub(super) extent: Option<(f64, f64)>,
+    /// Which side of it a relative length being checked is a part of.
+    pub(super) axis: super::expr::Axis,
 }
 
 impl<'a> Checker<'a> {
@@ -68,6 +77,8 @@ impl<'a> Checker<'a> {
             default_file: None,
             deps: Vec::new(),
             ref_spans: BTreeMap::new(),
+            extent: None,
+            axis: super::expr::Axis::Short,
         }
     }
 
@@ -160,9 +171,12 @@ impl<'a> Checker<'a> {
         self.decls.push(DeclAst { spec, name, name_span, decl: d, file });
     }
 
-    pub(super) fn apply_sets(&mut self, sets: &[(String, String)]) {
+    pub(super) fn apply_sets(&mut self, sets: &[(String, String)], may_miss: bool) {
         for (name, text) in sets {
             let Some(def) = self.params.get_mut(name) else {
+                if may_miss {
+                    continue;
+                }
                 let mut d = Diagnostic::error(format!("`--set {name}=…`: the scene declares no `param {name}`"))
                     .with_code("tessera::unknown_param");
                 if let Some(s) = suggest(name, self.params.keys().map(|k| k.as_str())) {

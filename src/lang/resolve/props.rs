@@ -25,6 +25,7 @@ impl Checker<'_> {
             let (spec, decl) = (self.decls[i].spec, self.decls[i].decl);
             self.deps.clear();
             let dir = self.dir_of(self.decls[i].file);
+            self.extent = self.extent_of(i, 0);
             let props = self.check_block(&decl.block, spec.props, &dir, self.decls[i].name_span, spec.name);
             for (setting, prop) in spec.settings {
                 match (setting, props.get(prop)) {

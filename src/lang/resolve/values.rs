@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::expr::Axis;
 use super::load::normalize;
 use super::namespace::Checker;
 use crate::lang::ast::{self, ValueKind};
@@ -94,6 +95,9 @@ impl Checker<'_> {
                 }
             }
         }
+        if let Some(val) = self.arithmetic(v, ty, dir) {
+            return val;
+        }
         if let (Ty::Pixels(range), ValueKind::Number { text, unit, .. }) = (ty, &v.kind) {
             let text = match unit {
                 Some(u) => format!("{text} {u}"),
@@ -125,24 +129,7 @@ impl Checker<'_> {
                     return None;
                 }
                 let x = self.convert_unit(*value, u.as_deref(), *unit, v.span)?;
-                if !x.is_finite() || x.abs() > MAX_NUMBER {
-                    self.errors.push(
-                        Diagnostic::error(format!("`{text}` overflows when converted to {}", unit.canonical()))
-                            .with_code("tessera::range")
-                            .with_label(v.span, "too large once converted"),
-                    );
-                    return None;
-                }
-                if x != 0.0 && (x.abs() as f32) < f32::MIN_POSITIVE {
-                    self.errors.push(
-                        Diagnostic::error(format!("`{text}` is too small: it rounds to 0 in 32-bit floats"))
-                            .with_code("tessera::range")
-                            .with_label(v.span, "below the smallest normal 32-bit float (about 1.2e-38)")
-                            .with_help("write `0` if zero is meant"),
-                    );
-                    return None;
-                }
-                self.in_range(x, *range, *unit, v.span)
+                self.number(x, text, *unit, *range, v.span)
             }
             (Ty::Int(lo, hi), ValueKind::Number { text, unit: None, .. }) => {
                 // Integers are read from their digits, not through an f64 (which rounds
@@ -274,6 +261,64 @@ impl Checker<'_> {
         }
     }
 
+    /// A converted number's checks: finite, not lost in 32-bit floats, in range.
+    fn number(&mut self, x: f64, text: &str, unit: Unit, range: Range, span: Span) -> Option<Val> {
+        if !x.is_finite() || x.abs() > MAX_NUMBER {
+            self.errors.push(
+                Diagnostic::error(format!("`{text}` overflows when converted to {}", unit.canonical()))
+                    .with_code("tessera::range")
+                    .with_label(span, "too large once converted"),
+            );
+            return None;
+        }
+        if x != 0.0 && (x.abs() as f32) < f32::MIN_POSITIVE {
+            self.errors.push(
+                Diagnostic::error(format!("`{text}` is too small: it rounds to 0 in 32-bit floats"))
+                    .with_code("tessera::range")
+                    .with_label(span, "below the smallest normal 32-bit float (about 1.2e-38)")
+                    .with_help("write `0` if zero is meant"),
+            );
+            return None;
+        }
+        self.in_range(x, range, unit, span)
+    }
+
+    /// `Some` when `v` is arithmetic where a number is wanted (see [`Checker::is_arithmetic`]):
+    /// its checked value, or `Some(None)` after an error. A computed whole-pixel length is
+    /// rounded to the nearest pixel (a written fraction is refused instead); a computed
+    /// integer must come out whole.
+    fn arithmetic(&mut self, v: &ast::Value, ty: &Ty, dir: &Path) -> Option<Option<Val>> {
+        let unit = match ty {
+            Ty::Number(unit, _) => *unit,
+            Ty::Pixels(_) => Unit::Length,
+            Ty::Int(..) => Unit::Plain,
+            _ => return None,
+        };
+        if !Self::is_arithmetic(v, unit) {
+            return None;
+        }
+        let text = self.sources.slice(v.span).to_string();
+        let Some(x) = self.evaluate(v, unit, dir) else { return Some(None) };
+        Some(match ty {
+            Ty::Number(unit, range) => self.number(x, &text, *unit, *range, v.span),
+            Ty::Pixels(range) => self.number(x.round(), &text, Unit::Length, *range, v.span),
+            Ty::Int(lo, hi) => {
+                let (lo, hi) = ((*lo).max(-MAX_EXACT_INT), (*hi).min(MAX_EXACT_INT));
+                if x.fract() != 0.0 || x < lo as f64 || x > hi as f64 {
+                    self.errors.push(
+                        Diagnostic::error(format!("expected an integer from {lo} to {hi}, found {x}"))
+                            .with_code("tessera::range")
+                            .with_label(v.span, format!("this is {x}")),
+                    );
+                    None
+                } else {
+                    Some(Val::Int(x as i64))
+                }
+            }
+            _ => unreachable!("only numeric types are evaluated"),
+        })
+    }
+
     fn unknown_name(&mut self, name: &str, span: Span, ty: &Ty) -> Option<Val> {
         let mut d = Diagnostic::error(format!("unknown name `{name}`"))
             .with_code("tessera::unknown_name")
@@ -322,10 +367,16 @@ impl Checker<'_> {
         Some(Val::Dir(path, files))
     }
 
+    /// The numbers of a vector; a relative length in it is a part of the width at even
+    /// positions and of the height at odd ones (`[x, y]`, `[x, y, w, h]`).
     fn numbers(&mut self, items: &[ast::Value], unit: Unit, range: Range) -> Option<Vec<f64>> {
         let mut out = Vec::with_capacity(items.len());
-        for it in items {
-            match self.check_value(it, &Ty::Number(unit, range), Path::new(""), 0)? {
+        let outer = self.axis;
+        for (i, it) in items.iter().enumerate() {
+            self.axis = if i % 2 == 0 { Axis::X } else { Axis::Y };
+            let checked = self.check_value(it, &Ty::Number(unit, range), Path::new(""), 0);
+            self.axis = outer;
+            match checked? {
                 Val::Num(x) => out.push(x),
                 _ => return None,
             }

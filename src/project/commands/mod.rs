@@ -41,6 +41,8 @@ pub struct Global {
     pub quiet: bool,
     /// Memory budget in bytes, instead of the manifest's or the machine's.
     pub max_memory: Option<u64>,
+    /// Instead of every scene's `seed`.
+    pub seed: Option<u64>,
 }
 
 /// Runs parallel work on `jobs` threads (at least one). Outputs do not depend on it.
@@ -54,6 +56,7 @@ impl Global {
         let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
         let mut p = Project::open(&cwd).map_err(|f| print_failed(&f))?;
         p.sets = self.sets.clone();
+        p.seed = self.seed;
         p.progress = !self.quiet;
         if let Some(m) = self.max_memory {
             p.set_budget(crate::graph::Budget::new(m));

@@ -22,8 +22,10 @@ pub enum Mode {
 
 /// Builds the scenes named by `paths` (every scene of the repository when empty).
 pub fn scenes(g: &Global, paths: &[PathBuf], mode: Mode) -> Outcome {
-    let p = g.open()?;
+    let mut p = g.open()?;
     let scenes = p.scene_files(paths).map_err(|f| print_failed(&f))?;
+    p.sets_may_miss = true;
+    takers_of_sets(&p, &scenes, g.quiet)?;
     let mut failed = false;
     let mut rows = Vec::new();
     let mut reports = Vec::new();
@@ -114,6 +116,39 @@ pub fn scenes(g: &Global, paths: &[PathBuf], mode: Mode) -> Outcome {
     } else {
         Ok(())
     }
+}
+
+/// Which of `scenes` declare each `--set` param: a set no scene takes is an error (a typo
+/// would otherwise go unnoticed); the others say which scenes took them. A scene that does
+/// not compile is left to the build to report.
+fn takers_of_sets(p: &project::Project, scenes: &[PathBuf], quiet: bool) -> Outcome {
+    if p.sets.is_empty() {
+        return Ok(());
+    }
+    let declared: Vec<(&PathBuf, Vec<String>)> =
+        scenes.iter().filter_map(|s| p.compile(s).ok().map(|(scene, _)| (s, scene.params))).collect();
+    let mut unknown = Vec::new();
+    for (name, value) in &p.sets {
+        let takers: Vec<String> =
+            declared.iter().filter(|(_, params)| params.contains(name)).map(|(s, _)| s.display().to_string()).collect();
+        if takers.is_empty() {
+            unknown.push(name.as_str());
+        } else if !quiet {
+            println!("--set {name}={value}: taken by {}", takers.join(", "));
+        }
+    }
+    if unknown.is_empty() {
+        return Ok(());
+    }
+    let all: Vec<&str> = declared.iter().flat_map(|(_, params)| params.iter().map(|p| p.as_str())).collect();
+    for name in unknown {
+        let who = if scenes.len() == 1 { "the scene declares no" } else { "no scene declares" };
+        eprintln!("error: `--set {name}=…`: {who} `param {name}`");
+        if let Some(s) = crate::lang::diag::suggest(name, all.iter().copied()) {
+            eprintln!("  help: did you mean `{s}`?");
+        }
+    }
+    Err(Reported)
 }
 
 /// The `--report` file: `report` as pretty JSON.
