@@ -188,3 +188,17 @@ fn a_global_seed_overrides_every_scene_seed() {
     assert_eq!(p.read("out/a/m.png"), c);
     assert_eq!(p.read("out/b/m.png"), c);
 }
+
+#[test]
+fn params_that_grow_exponentially_are_stopped_with_a_diagnostic() {
+    let mut text = String::from("map m {\n  from = constant(value = 1)\n  blur = p0\n}\n");
+    // 12 levels below the param depth limit, 3¹² = 531 441 operands.
+    for i in 0..12 {
+        text.push_str(&format!("param p{i} = p{} + p{} + p{}\n", i + 1, i + 1, i + 1));
+    }
+    text.push_str("param p12 = 1\n");
+    let p = Project::new(&[("s.tess", &text)]);
+    let run = p.tessera(&["build", "s.tess"]);
+    run.failed();
+    assert!(run.stderr().contains("takes more than 100000 steps to evaluate"), "{}", run.stderr());
+}

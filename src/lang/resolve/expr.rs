@@ -19,6 +19,10 @@ use crate::lang::source::Span;
 /// How deep params may refer to params inside an expression.
 const MAX_PARAM_DEPTH: usize = 16;
 
+/// Most operands one value may evaluate, params expanded: params that each use the next
+/// several times would otherwise grow exponentially (`param a = b + b`, `param b = c + c`, ...).
+const MAX_STEPS: usize = 100_000;
+
 /// Which side of the extent a relative length (`40%`) is a part of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Axis {
@@ -72,6 +76,7 @@ impl Checker<'_> {
     /// The value of the arithmetic `v` in the canonical units of `unit` (pixels, radians,
     /// fractions), or `None` after reporting why it has none.
     pub(super) fn evaluate(&mut self, v: &ast::Value, unit: Unit, dir: &Path) -> Option<f64> {
+        self.steps = 0;
         let q = self.eval(v, unit, dir, 0)?;
         let x = match (unit, q.dim) {
             (Unit::Length, Dim::Free | Dim::Length) => q.v,
@@ -91,6 +96,18 @@ impl Checker<'_> {
     }
 
     fn eval(&mut self, v: &ast::Value, want: Unit, dir: &Path, depth: usize) -> Option<Q> {
+        self.steps += 1;
+        if self.steps == MAX_STEPS {
+            self.errors.push(
+                Diagnostic::error(format!("this value takes more than {MAX_STEPS} steps to evaluate"))
+                    .with_code("tessera::expression")
+                    .with_label(v.span, "evaluation stopped here")
+                    .with_help("params that use other params several times grow exponentially; simplify them"),
+            );
+        }
+        if self.steps >= MAX_STEPS {
+            return None;
+        }
         match &v.kind {
             ValueKind::Number { value, unit, .. } => self.literal(*value, unit.as_deref(), want, v.span),
             ValueKind::Paren(inner) => self.eval(inner, want, dir, depth),

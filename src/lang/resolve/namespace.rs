@@ -58,6 +58,8 @@ pub(super) struct Checker<'a> {
     pub(super) extent: Option<(f64, f64)>,
     /// Which side of it a relative length being checked is a part of.
     pub(super) axis: super::expr::Axis,
+    /// Operands evaluated for the value being checked (bounded: see `expr::MAX_STEPS`).
+    pub(super) steps: usize,
 }
 
 impl<'a> Checker<'a> {
@@ -79,6 +81,7 @@ impl<'a> Checker<'a> {
             ref_spans: BTreeMap::new(),
             extent: None,
             axis: super::expr::Axis::Short,
+            steps: 0,
         }
     }
 
