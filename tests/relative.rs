@@ -144,7 +144,7 @@ fn arithmetic_errors_point_at_what_is_wrong() {
 
 #[test]
 fn fmt_keeps_expressions_as_written() {
-    let text = "map m {\n  from = rect(at = [-(2 px), 10%], size = [scene.width / 2, max(8, 2 * k - 1)])\n  blur = (1 + 2) * 0.5%\n}\n\nparam k = 3\n";
+    let text = "map m {\n  from = rect(at = [-(2 px), 10%], size = [scene.width / 2, max(8, 2 * k - 1)])\n  blur = (1 + 2) * 0.5%\n  # A comment on its own line stays there.\n  invert = true\n}\n\nparam k = 3 * 1\n# After a param.\n";
     let p = Project::new(&[("s.tess", text)]);
     p.tessera(&["fmt", "--check", "s.tess"]).ok();
     // Layout is normalised, the expression is not rewritten.

@@ -299,11 +299,12 @@ impl Builder {
                 Item::Import(Import { path_span: self.span(&s), path: unescape(&s), span })
             }
             Rule::param => {
-                let span = self.span(&p);
+                let start = self.span(&p);
                 let mut it = p.into_inner();
                 let name = self.ident(it.next().expect("param name"));
                 let value = self.value(it.next().expect("param value"));
-                Item::Param(Param { name, value, span })
+                // Up to the value's end: an arithmetic rule's span takes in the blanks after it.
+                Item::Param(Param { name, span: Span { end: value.span.end, ..start }, value })
             }
             Rule::decl => Item::Decl(self.decl(p)),
             r => unreachable!("unexpected top-level rule {r:?}"),
@@ -363,6 +364,8 @@ impl Builder {
         } else {
             self.value(v)
         };
+        // Up to the value's end: an arithmetic rule's span takes in the blanks after it.
+        let span = Span { end: value.span.end, ..span };
         Property { name, value, span }
     }
 
@@ -387,7 +390,8 @@ impl Builder {
                 if rest.is_empty() {
                     return first;
                 }
-                ValueKind::Chain { first: Box::new(first), rest }
+                let span = first.span.to(rest.last().expect("an operand").1.span);
+                return Value { kind: ValueKind::Chain { first: Box::new(first), rest }, span };
             }
             Rule::unary => {
                 let mut it = inner.into_inner();
