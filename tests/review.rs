@@ -192,3 +192,39 @@ fn line_art_diffs_show_removed_and_added_pixels_in_two_colours() {
         assert!(near(px(0, y), [1.0; 3]), "white ground at y {y}: {:?}", px(0, y));
     }
 }
+
+#[test]
+fn label_diffs_show_moved_boundaries_in_two_colours_over_the_faded_golden() {
+    let scene = |seed: u32| {
+        format!(
+            "scene {{ seed = {seed}  size = 96 x 64 }}\nsample s {{ structure = \"wall.json\" }}\n\
+             surface t {{ plane = 96 x 64 }}\nstructure st {{\n  from = s\n  on = t\n}}\n\
+             output \"labels.png\" {{ from = st }}\n"
+        )
+    };
+    let p = Project::new(&[("scene.tess", &scene(3))]);
+    let json = std::fs::read(common::repo().join("samples/standins/wall_random.json")).expect("stand-in");
+    p.write_bytes("wall.json", &json);
+    p.tessera(&["bless", "scene.tess"]).ok();
+    p.write("scene.tess", &scene(4));
+    let run = p.tessera(&["check", "scene.tess"]);
+    run.failed();
+    assert!(run.stdout().contains("compared exactly"), "{}", run.stdout());
+    let d = raster::io::decode(&p.read("out/.diff/scene/labels.png.diff.png")).expect("diff decodes");
+    let near = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(a, b)| (a - b).abs() <= 1.0 / 255.0);
+    let (mut removed, mut added) = (0, 0);
+    for y in 0..d.height {
+        for x in 0..d.width {
+            let c = [d.get(x, y, 0), d.get(x, y, 1), d.get(x, y, 2)];
+            if near(c, REMOVED) {
+                removed += 1;
+            } else if near(c, ADDED) {
+                added += 1;
+            } else {
+                let faded = c[0] == c[1] && c[1] == c[2] && c[0] >= 0.74;
+                assert!(faded || near(c, tessera::golden::CHANGED), "({x}, {y}): {c:?}");
+            }
+        }
+    }
+    assert!(removed > 0 && added > 0, "removed {removed}, added {added}");
+}
