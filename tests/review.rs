@@ -70,6 +70,10 @@ fn a_stale_golden_is_reported_by_check_and_removed_by_bless_prune_alone() {
         ("scene/sub.tess", &scene_with(&[("c.png", 0.75)])),
     ]);
     p.tessera(&["bless"]).ok();
+    p.write("scene.tess", &scene_with(&[("a.png", 0.25), ("old/b.png", 0.75)]));
+    p.tessera(&["check", "scene.tess"]).failed();
+    let diff = p.path("out/.diff/scene/old/b.png.diff.png");
+    assert!(diff.exists());
     p.write("scene.tess", &scene_with(&[("a.png", 0.25)]));
     // Files that are not goldens of `scene`: notes, a hidden file, a link leading out, the
     // goldens of the scene `scene/sub`.
@@ -91,6 +95,7 @@ fn a_stale_golden_is_reported_by_check_and_removed_by_bless_prune_alone() {
     run.ok();
     assert!(run.stdout().contains("pruned golden/scene/old/b.png"), "{}", run.stdout());
     assert!(!p.path("golden/scene/old").exists(), "the emptied directory goes too");
+    assert!(!diff.exists(), "its diff image goes too");
     for kept in [
         "golden/scene/a.png",
         "golden/scene/notes.txt",

@@ -46,7 +46,7 @@ impl Project {
 
     /// Removes `stale` goldens (as [`Project::stale_goldens`] found them), each proven again to
     /// be a regular file inside the golden directory, then the directories that held only
-    /// them. Returns the files removed.
+    /// them and the diff images a failed check left for them. Returns the files removed.
     pub fn prune_goldens(&self, built: &Built, stale: &[PathBuf]) -> Result<Vec<PathBuf>, Failed> {
         let scene_dir = self.golden_dir(&built.name);
         let mut removed = Vec::new();
@@ -60,9 +60,23 @@ impl Project {
             std::fs::remove_file(path)
                 .map_err(|e| plain_error(format!("cannot remove the stale golden `{}`: {e}", path.display())))?;
             remove_empty_parents(path, &scene_dir);
+            self.remove_diff(&built.name, rel);
             removed.push(path.clone());
         }
         Ok(removed)
+    }
+}
+
+impl Project {
+    /// Removes the diff image of a pruned golden (`rel` below the golden root, so it starts
+    /// with the scene's name), if a failed check left one.
+    fn remove_diff(&self, scene: &str, rel: &Path) {
+        let Ok(output) = rel.strip_prefix(scene) else { return };
+        if let Ok(diff) = self.diff_path(scene, &output.to_string_lossy()) {
+            if std::fs::symlink_metadata(&diff).is_ok_and(|m| m.file_type().is_file()) {
+                let _ = std::fs::remove_file(&diff);
+            }
+        }
     }
 }
 
