@@ -65,9 +65,7 @@ impl Project {
         }
         Ok(removed)
     }
-}
 
-impl Project {
     /// Removes the diff image of a pruned golden (`rel` below the golden root, so it starts
     /// with the scene's name), if a failed check left one.
     fn remove_diff(&self, scene: &str, rel: &Path) {
