@@ -52,8 +52,18 @@ enum Command {
     },
     /// Build scenes and compare their outputs with the goldens.
     Check { paths: Vec<PathBuf> },
-    /// Build scenes and write their outputs as the new goldens.
-    Bless { paths: Vec<PathBuf> },
+    /// Build scenes and write their outputs as the new goldens: whole scenes, or single
+    /// outputs as `SCENE:OUTPUT` (`scenes/wall.tess:labels.png`).
+    Bless {
+        #[arg(value_name = "SCENE[:OUTPUT]")]
+        targets: Vec<String>,
+        /// Also remove the goldens of outputs the scenes no longer declare.
+        #[arg(long)]
+        prune: bool,
+    },
+    /// Check scenes, then walk the failing outputs one by one: accept (bless it), reject,
+    /// skip or quit, answered on stdin.
+    Review { paths: Vec<PathBuf> },
     /// Rewrite scene files in the canonical layout.
     Fmt {
         paths: Vec<PathBuf>,
@@ -151,7 +161,8 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Build { paths } => commands::scenes(&g, &paths, Mode::Build),
         Command::Check { paths } => commands::scenes(&g, &paths, Mode::Check),
-        Command::Bless { paths } => commands::scenes(&g, &paths, Mode::Bless),
+        Command::Bless { targets, prune } => commands::bless(&g, &targets, prune),
+        Command::Review { paths } => commands::scenes(&g, &paths, Mode::Review),
         Command::Watch { scene, debounce } => commands::watch(&g, &scene, Duration::from_millis(debounce)),
         Command::Fmt { paths, check } => commands::fmt(&g, &paths, check),
         Command::Explain { kind, markdown } => commands::explain(kind.as_deref(), markdown),

@@ -9,6 +9,9 @@ mod diff;
 pub use compare::{compare, Comparison, Tolerance};
 pub use diff::diff_image;
 
+mod lines;
+pub use lines::{is_line_art, two_colour_diff, Marks, ADDED, CHANGED, REMOVED};
+
 mod text;
 pub use text::{compare_text, TextComparison};
 

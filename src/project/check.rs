@@ -140,7 +140,7 @@ impl Project {
                 // The diff of an earlier failure no longer says anything.
                 let _ = std::fs::remove_file(&diff_path);
             } else {
-                let diff = golden::diff_image(&actual, &expected, &tol);
+                let diff = diff_picture(&actual, &expected, &tol, o.exact);
                 let png = raster::io::encode_png(&diff, 8)
                     .map_err(|e| super::plain_error(format!("cannot encode a diff image: {e}")))?;
                 graph::write_atomic(&diff_path, &png)
@@ -150,6 +150,20 @@ impl Project {
             rows.push(row);
         }
         Ok(rows)
+    }
+}
+
+/// The diff image of a failing image output: identities (labels, index maps) show their
+/// moved region boundaries and line art (nearly black and white: edges, seams) its removed
+/// and added lines, in two colours over the faded golden; anything else shows how far each
+/// pixel is off.
+fn diff_picture(actual: &raster::Image, expected: &raster::Image, tol: &Tolerance, exact: bool) -> raster::Image {
+    if exact {
+        golden::two_colour_diff(actual, expected, golden::Marks::Boundaries)
+    } else if golden::is_line_art(expected) && golden::is_line_art(actual) {
+        golden::two_colour_diff(actual, expected, golden::Marks::Lines)
+    } else {
+        golden::diff_image(actual, expected, tol)
     }
 }
 

@@ -5,6 +5,7 @@
 mod check;
 pub mod commands;
 pub mod format;
+mod goldens;
 pub mod manifest;
 mod show;
 pub mod texture;
@@ -55,7 +56,7 @@ impl From<Diagnostics> for Failed {
     }
 }
 
-fn plain_error(message: String) -> Failed {
+pub(crate) fn plain_error(message: String) -> Failed {
     Diagnostics::new(vec![Diagnostic::error(message)], Default::default()).into()
 }
 
@@ -301,7 +302,20 @@ impl Project {
     }
 
     fn commit(&self, built: &Built, root: &Path, what: &str) -> Result<Vec<Emitted>, Failed> {
-        let paths = self.destinations(built, root)?;
+        self.commit_some(built, root, what, &|_| true)
+    }
+
+    /// Writes the outputs `keep` selects as one set below `root`.
+    fn commit_some(
+        &self,
+        built: &Built,
+        root: &Path,
+        what: &str,
+        keep: &dyn Fn(&PlannedOutput) -> bool,
+    ) -> Result<Vec<Emitted>, Failed> {
+        let chosen: Vec<usize> = (0..built.outputs.len()).filter(|&i| keep(&built.outputs[i].0)).collect();
+        let all = self.destinations(built, root)?;
+        let paths: Vec<PathBuf> = chosen.iter().map(|&i| all[i].clone()).collect();
         let mut dirs: Vec<&Path> = paths.iter().filter_map(|p| p.parent()).collect();
         dirs.sort();
         dirs.dedup();
@@ -309,18 +323,24 @@ impl Project {
             files::sweep_stale(d);
         }
         let mut set = files::OutputSet::new();
-        for (path, (_, bytes)) in paths.iter().zip(&built.outputs) {
-            set.add(path.clone(), bytes.0.clone());
+        for (path, &i) in paths.iter().zip(&chosen) {
+            set.add(path.clone(), built.outputs[i].1 .0.clone());
         }
         let written = set.commit().map_err(|e| {
             let mut d =
                 Diagnostic::error(format!("{e}; none of the scene's {what} was changed")).with_code("tessera::write");
             if let Some(i) = paths.iter().position(|p| *p == e.path) {
-                d = d.with_label(built.outputs[i].0.span, "this output");
+                d = d.with_label(built.outputs[chosen[i]].0.span, "this output");
             }
             Failed::from(Diagnostics::new(vec![d], built.scene.sources.clone()))
         })?;
         Ok(written.into_iter().map(|w| Emitted { path: w.path, written: w.changed }).collect())
+    }
+
+    /// The names of every scene of the repository (those whose name is valid).
+    pub fn scene_names(&self) -> Vec<String> {
+        let files = self.scene_files(&[]).unwrap_or_default();
+        files.iter().filter_map(|f| self.scene_name(f).ok()).collect()
     }
 
     /// The keys of every stage of a scene, for `gc` and `graph`.

@@ -5,6 +5,7 @@
 mod explain;
 mod fmt;
 mod print;
+mod review;
 mod scenes;
 mod watch;
 
@@ -12,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 pub use explain::explain;
 pub use fmt::fmt;
-pub use scenes::{scenes, Mode};
+pub use scenes::{bless, scenes, Mode};
 pub use watch::watch;
 
 /// Parses a memory size (`4GiB`, `512MiB`, bytes), for `--max-memory`.

@@ -1,5 +1,5 @@
 //! What the commands print about a build: diagnostics (rendered by miette, coloured only
-//! on a terminal), stage warnings and the `check` table.
+//! on a terminal), stage warnings, the `check` table and one row as `review` shows it.
 
 use miette::{GraphicalReportHandler, GraphicalTheme};
 
@@ -79,4 +79,40 @@ pub(super) fn check_table(rows: &[CheckRow]) {
     }
     let pass = rows.iter().filter(|r| r.status == CheckStatus::Pass).count();
     println!("\ncheck: {} passed, {} failed", pass, rows.len() - pass);
+}
+
+/// One check row as `review` shows it: scene, output, status, the numbers the check
+/// computed, its note (a mesh's Hausdorff distance, a size mismatch) and the diff image.
+pub(super) fn row_summary(r: &CheckRow) -> String {
+    let status = match r.status {
+        CheckStatus::Pass => "passes",
+        CheckStatus::Fail => "FAILS",
+        CheckStatus::Missing => "has no golden",
+    };
+    let mut s = format!("scene `{}`, output `{}` {status}", r.scene, r.output);
+    if r.status == CheckStatus::Fail {
+        let share = if r.total_pixels > 0 { 100.0 * r.failing_pixels as f64 / r.total_pixels as f64 } else { 0.0 };
+        s += &format!(
+            "\n  max diff {:.5}, tolerance {:.5}; beyond it: {}/{} ({share:.3} %)",
+            r.max_abs, r.tolerance, r.failing_pixels, r.total_pixels
+        );
+        if let (Some(bits), Some(steps)) = (r.bits, r.max_steps) {
+            s += &format!("\n  in {bits}-bit steps: max diff {steps}, tolerance {}", r.tolerance_steps.unwrap_or(0));
+        }
+        if r.exact {
+            s += "\n  compared exactly: its values are identities";
+        }
+    }
+    if let Some(n) = &r.note {
+        s += &format!("\n  {n}");
+    }
+    if let Some(d) = &r.diff {
+        s += &format!("\n  diff image: {}", shown(d).display());
+    }
+    s
+}
+
+/// A path as shown in messages, without `.` components (`././scene.tess` is `scene.tess`).
+pub(super) fn shown(path: &std::path::Path) -> std::path::PathBuf {
+    path.components().filter(|c| !matches!(c, std::path::Component::CurDir)).collect()
 }

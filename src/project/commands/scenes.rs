@@ -1,13 +1,15 @@
-//! `tessera build`, `check` and `bless`: every named scene in turn, each built, claimed
-//! against the others' outputs, written, then checked or blessed; a failing scene is
+//! `tessera build`, `check`, `bless` and `review`: every named scene in turn, each built,
+//! claimed against the others' outputs, written, then checked or blessed; a failing scene is
 //! reported and the rest still run. With `--report`, the stage reports of all scenes go to
 //! one JSON file.
 
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use super::print::{self, print_failed};
-use super::{Global, Outcome, Reported};
-use crate::project::{self, CheckStatus};
+use super::{review, Global, Outcome, Reported};
+use crate::lang::diag::suggest;
+use crate::project::{self, Built, CheckRow, CheckStatus, Failed, Project};
 
 /// What happens to a scene once it is built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -16,88 +18,126 @@ pub enum Mode {
     Build,
     /// Write its outputs and compare them with the goldens.
     Check,
-    /// Write its outputs and make them the goldens.
-    Bless,
+    /// Write its outputs and make them (or the selected ones) the goldens; with `prune`,
+    /// also remove the goldens of outputs the scene no longer declares.
+    Bless { prune: bool },
+    /// Check, then walk the failing outputs one by one (`tessera review`).
+    Review,
+}
+
+/// Outputs picked by `SCENE:OUTPUT` arguments, by scene name; a scene absent here is whole.
+#[derive(Default)]
+struct Selection {
+    outputs: HashMap<String, Vec<String>>,
+}
+
+impl Selection {
+    fn of(&self, scene: &str) -> Option<&[String]> {
+        self.outputs.get(scene).map(Vec::as_slice)
+    }
 }
 
 /// Builds the scenes named by `paths` (every scene of the repository when empty).
 pub fn scenes(g: &Global, paths: &[PathBuf], mode: Mode) -> Outcome {
     let mut p = g.open()?;
-    let scenes = p.scene_files(paths).map_err(|f| print_failed(&f))?;
     p.sets_may_miss = true;
-    takers_of_sets(&p, &scenes, g.quiet)?;
+    run(g, &p, paths, mode, &Selection::default())
+}
+
+/// `tessera bless [SCENE[:OUTPUT]]...`: blesses whole scenes, or only the outputs named after
+/// a scene file and a colon.
+pub fn bless(g: &Global, targets: &[String], prune: bool) -> Outcome {
+    let mut p = g.open()?;
+    p.sets_may_miss = true;
+    let (paths, selection) = select(&p, targets).map_err(|f| print_failed(&f))?;
+    run(g, &p, &paths, Mode::Bless { prune }, &selection)
+}
+
+/// Splits `SCENE:OUTPUT` targets (a target that exists as a file or directory is a scene,
+/// colon or not): the scene paths, each once, and the outputs picked in each scene.
+fn select(p: &Project, targets: &[String]) -> Result<(Vec<PathBuf>, Selection), Failed> {
+    let mut paths: Vec<PathBuf> = Vec::new();
+    let mut whole = Vec::new();
+    let mut picked: Vec<(PathBuf, String)> = Vec::new();
+    for t in targets {
+        let (scene, output) = match t.split_once(':') {
+            Some((s, o)) if !Path::new(t).exists() => (PathBuf::from(s), Some(o.to_string())),
+            _ => (PathBuf::from(t), None),
+        };
+        if !scene.exists() {
+            return Err(unknown_scene(p, &scene));
+        }
+        match output {
+            Some(o) if scene.is_file() => picked.push((scene.clone(), o)),
+            Some(_) => {
+                return Err(project::plain_error(format!(
+                    "`{t}`: `{}` is a directory; name a scene file before the `:`",
+                    scene.display()
+                )))
+            }
+            None => whole.push(scene.clone()),
+        }
+        if !paths.contains(&scene) {
+            paths.push(scene);
+        }
+    }
+    // `scene_files` of no path lists every scene: no whole scene was named then.
+    let whole: HashSet<String> = if whole.is_empty() {
+        HashSet::new()
+    } else {
+        p.scene_files(&whole)?.iter().filter_map(|f| p.scene_name(f).ok()).collect()
+    };
+    let mut selection = Selection::default();
+    for (scene, output) in picked {
+        let name = p.scene_name(&scene)?;
+        if !whole.contains(&name) {
+            selection.outputs.entry(name).or_default().push(output);
+        }
+    }
+    Ok((paths, selection))
+}
+
+/// A scene path that does not exist, with the closest scene file as a suggestion.
+fn unknown_scene(p: &Project, scene: &Path) -> Failed {
+    let known: Vec<String> =
+        p.scene_files(&[]).unwrap_or_default().iter().map(|f| print::shown(f).display().to_string()).collect();
+    let hint = suggest(&scene.display().to_string(), known.iter().map(String::as_str))
+        .map(|s| format!("; did you mean `{s}`?"))
+        .unwrap_or_default();
+    project::plain_error(format!("no such scene file or directory: `{}`{hint}", scene.display()))
+}
+
+fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selection) -> Outcome {
+    let scenes = p.scene_files(paths).map_err(|f| print_failed(&f))?;
+    let names = p.scene_names();
+    takers_of_sets(p, &scenes, g.quiet)?;
     let mut failed = false;
     let mut rows = Vec::new();
     let mut reports = Vec::new();
+    let mut builts = Vec::new();
     let mut claims = project::Claims::default();
     for scene in &scenes {
         p.world.begin_build();
-        let built = match p.build(scene) {
+        let built = match build_and_emit(g, p, scene, &mut claims) {
             Ok(b) => b,
-            Err(f) => {
-                print_failed(&f);
+            Err(Reported) => {
                 failed = true;
                 continue;
             }
         };
-        if let Err(f) = claims.claim(&built) {
-            print_failed(&f);
-            failed = true;
-            continue;
-        }
-        let emitted = match p.emit(&built) {
-            Ok(e) => e,
-            Err(f) => {
-                print_failed(&f);
-                failed = true;
-                continue;
-            }
-        };
-        print::warnings(&built.report);
-        if !g.quiet {
-            let ran = built.report.ran().count();
-            let written = emitted.iter().filter(|e| e.written).count();
-            println!(
-                "{}: {} stages, {} ran, {} cached; {} of {} outputs written ({:.1} ms)",
-                scene.display(),
-                built.report.stages.len(),
-                ran,
-                built.report.stages.len() - ran,
-                written,
-                emitted.len(),
-                built.millis
-            );
-            if g.timings {
-                print!("{}", project::timings_table(&built.report));
-            }
-        }
         reports.push(serde_json::json!({
             "scene": scene.display().to_string(),
             "millis": built.millis,
             "stages": built.report.stages,
         }));
-        match mode {
-            Mode::Build => {}
-            Mode::Bless => match p.bless(&built) {
-                Ok(paths) => {
-                    if !g.quiet {
-                        for path in paths {
-                            println!("  blessed {}", path.display());
-                        }
-                    }
-                }
-                Err(f) => {
-                    print_failed(&f);
-                    failed = true;
-                }
-            },
-            Mode::Check => match p.check(&built) {
-                Ok(r) => rows.extend(r),
-                Err(f) => {
-                    print_failed(&f);
-                    failed = true;
-                }
-            },
+        let done = match mode {
+            Mode::Build => Ok(()),
+            Mode::Bless { prune } => bless_scene(g, p, &built, selection.of(&built.name), prune, &names),
+            Mode::Check | Mode::Review => check_scene(p, &built, &names, &mut rows),
+        };
+        failed |= done.is_err();
+        if mode == Mode::Review {
+            builts.push(built);
         }
     }
     if let Some(path) = &g.report {
@@ -105,11 +145,13 @@ pub fn scenes(g: &Global, paths: &[PathBuf], mode: Mode) -> Outcome {
             failed = true;
         }
     }
-    if mode == Mode::Check {
-        print::check_table(&rows);
-        if rows.iter().any(|r| r.status != CheckStatus::Pass) {
-            failed = true;
+    match mode {
+        Mode::Check => {
+            print::check_table(&rows);
+            failed |= rows.iter().any(|r| r.status != CheckStatus::Pass);
         }
+        Mode::Review => failed |= review::walk(g, p, &builts, &rows).is_err(),
+        Mode::Build | Mode::Bless { .. } => {}
     }
     if failed {
         Err(Reported)
@@ -121,7 +163,7 @@ pub fn scenes(g: &Global, paths: &[PathBuf], mode: Mode) -> Outcome {
 /// Which of `scenes` declare each `--set` param: a set no scene takes is an error (a typo
 /// would otherwise go unnoticed); the others say which scenes took them. A scene that does
 /// not compile is left to the build to report.
-fn takers_of_sets(p: &project::Project, scenes: &[PathBuf], quiet: bool) -> Outcome {
+fn takers_of_sets(p: &Project, scenes: &[PathBuf], quiet: bool) -> Outcome {
     if p.sets.is_empty() {
         return Ok(());
     }
@@ -149,6 +191,83 @@ fn takers_of_sets(p: &project::Project, scenes: &[PathBuf], quiet: bool) -> Outc
         }
     }
     Err(Reported)
+}
+
+/// Builds one scene, claims its outputs against the other scenes' and writes them.
+fn build_and_emit(g: &Global, p: &Project, scene: &Path, claims: &mut project::Claims) -> Result<Built, Reported> {
+    let built = p.build(scene).map_err(|f| print_failed(&f))?;
+    claims.claim(&built).map_err(|f| print_failed(&f))?;
+    let emitted = p.emit(&built).map_err(|f| print_failed(&f))?;
+    print::warnings(&built.report);
+    if !g.quiet {
+        let ran = built.report.ran().count();
+        let written = emitted.iter().filter(|e| e.written).count();
+        println!(
+            "{}: {} stages, {} ran, {} cached; {} of {} outputs written ({:.1} ms)",
+            scene.display(),
+            built.report.stages.len(),
+            ran,
+            built.report.stages.len() - ran,
+            written,
+            emitted.len(),
+            built.millis
+        );
+        if g.timings {
+            print!("{}", project::timings_table(&built.report));
+        }
+    }
+    Ok(built)
+}
+
+/// Compares a scene's outputs with its goldens (rows added to `rows`) and warns about
+/// goldens of outputs it no longer declares.
+fn check_scene(p: &Project, built: &Built, names: &[String], rows: &mut Vec<CheckRow>) -> Outcome {
+    let r = p.check(built).map_err(|f| print_failed(&f))?;
+    rows.extend(r);
+    for stale in p.stale_goldens(built, names) {
+        eprintln!(
+            "warning: `{}` is the golden of no output of `{}`; `tessera bless --prune` removes it",
+            print::shown(&stale).display(),
+            print::shown(&built.scene_path).display()
+        );
+    }
+    Ok(())
+}
+
+/// Blesses a scene's outputs (those `only` names, or all), then prunes or reports its stale
+/// goldens.
+fn bless_scene(
+    g: &Global,
+    p: &Project,
+    built: &Built,
+    only: Option<&[String]>,
+    prune: bool,
+    names: &[String],
+) -> Outcome {
+    let paths = p.bless_outputs(built, only).map_err(|f| print_failed(&f))?;
+    if !g.quiet {
+        for path in paths {
+            println!("  blessed {}", path.display());
+        }
+    }
+    let stale = p.stale_goldens(built, names);
+    if prune {
+        let removed = p.prune_goldens(built, &stale).map_err(|f| print_failed(&f))?;
+        if !g.quiet {
+            for path in removed {
+                println!("  pruned {}", print::shown(&path).display());
+            }
+        }
+    } else {
+        for path in stale {
+            eprintln!(
+                "warning: `{}` is the golden of no output of `{}`; `--prune` removes it",
+                print::shown(&path).display(),
+                print::shown(&built.scene_path).display()
+            );
+        }
+    }
+    Ok(())
 }
 
 /// The `--report` file: `report` as pretty JSON.
