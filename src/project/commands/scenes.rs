@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::messages;
 use super::print::{self, print_failed};
 use super::{Global, Outcome, Reported};
 use crate::project::{self, CheckStatus};
@@ -20,6 +21,17 @@ pub enum Mode {
     Bless,
 }
 
+impl Mode {
+    /// The command's name: `build`, `check` or `bless`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Build => "build",
+            Mode::Check => "check",
+            Mode::Bless => "bless",
+        }
+    }
+}
+
 /// Builds the scenes named by `paths` (every scene of the repository when empty).
 pub fn scenes(g: &Global, paths: &[PathBuf], mode: Mode) -> Outcome {
     let p = g.open()?;
@@ -28,6 +40,7 @@ pub fn scenes(g: &Global, paths: &[PathBuf], mode: Mode) -> Outcome {
     let mut rows = Vec::new();
     let mut reports = Vec::new();
     let mut claims = project::Claims::default();
+    let mut tally = print::Tally { scenes: scenes.len(), ..Default::default() };
     for scene in &scenes {
         p.world.begin_build();
         let built = match p.build(scene) {
@@ -51,24 +64,10 @@ pub fn scenes(g: &Global, paths: &[PathBuf], mode: Mode) -> Outcome {
                 continue;
             }
         };
-        print::warnings(&built.report);
-        if !g.quiet {
-            let ran = built.report.ran().count();
-            let written = emitted.iter().filter(|e| e.written).count();
-            println!(
-                "{}: {} stages, {} ran, {} cached; {} of {} outputs written ({:.1} ms)",
-                scene.display(),
-                built.report.stages.len(),
-                ran,
-                built.report.stages.len() - ran,
-                written,
-                emitted.len(),
-                built.millis
-            );
-            if g.timings {
-                print!("{}", project::timings_table(&built.report));
-            }
-        }
+        print::warnings(Some(&built.name), &built.report);
+        tally.outputs += emitted.len();
+        tally.written += emitted.iter().filter(|e| e.written).count();
+        print::built(g, &p, scene, &built, &emitted);
         reports.push(serde_json::json!({
             "scene": scene.display().to_string(),
             "millis": built.millis,
@@ -77,6 +76,7 @@ pub fn scenes(g: &Global, paths: &[PathBuf], mode: Mode) -> Outcome {
         match mode {
             Mode::Build => {}
             Mode::Bless => match p.bless(&built) {
+                Ok(paths) if messages::json() => messages::blessed(&built.name, &paths),
                 Ok(paths) => {
                     if !g.quiet {
                         for path in paths {
@@ -109,6 +109,8 @@ pub fn scenes(g: &Global, paths: &[PathBuf], mode: Mode) -> Outcome {
             failed = true;
         }
     }
+    tally.built = reports.len();
+    print::summary(mode.name(), &tally, (mode == Mode::Check).then_some(&rows[..]), failed);
     if failed {
         Err(Reported)
     } else {
