@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 
-use tessera::project::commands::{self, Global, Mode};
+use tessera::project::commands::{self, Global, MessageFormat, Mode, Shell};
 use tessera::project::texture::{Fourier, SimilarOptions};
 
 #[derive(Parser)]
@@ -30,6 +30,10 @@ struct Cli {
     /// Print nothing but errors.
     #[arg(short, long, global = true)]
     quiet: bool,
+    /// How to report: `human`, or `json` (one object per line on stdout; see
+    /// docs/message-format.md).
+    #[arg(long, value_enum, value_name = "FORMAT", global = true, default_value_t = FormatArg::Human)]
+    message_format: FormatArg,
     /// Memory budget of a build (`4GiB`, `512MiB`, bytes); default: `[limits] max_memory` in
     /// tessera.toml, else half the machine's memory.
     #[arg(long, value_name = "SIZE", global = true, value_parser = commands::parse_bytes)]
@@ -129,6 +133,19 @@ enum Command {
         #[arg(long)]
         all: bool,
     },
+    /// Print a shell completion script: `tessera completions bash > /etc/bash_completion.d/tessera`.
+    Completions {
+        #[arg(value_enum)]
+        shell: Shell,
+    },
+    /// Print the man page (roff): `tessera man > tessera.1`.
+    Man,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum FormatArg {
+    Human,
+    Json,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -150,6 +167,10 @@ fn main() -> ExitCode {
     if let Some(j) = cli.jobs {
         commands::set_jobs(j);
     }
+    commands::set_message_format(match cli.message_format {
+        FormatArg::Human => MessageFormat::Human,
+        FormatArg::Json => MessageFormat::Json,
+    });
     let g = Global {
         sets: cli.sets,
         timings: cli.timings,
@@ -181,6 +202,8 @@ fn main() -> ExitCode {
             commands::similar(&g, &dir, &target, &options)
         }
         Command::Compare { a, b } => commands::compare(&a, &b),
+        Command::Completions { shell } => commands::completions(Cli::command(), shell),
+        Command::Man => commands::man(Cli::command()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,4 +1,4 @@
-//! The small commands: fmt, explain.
+//! The small commands: fmt, explain, completions, man.
 
 mod common;
 
@@ -48,4 +48,28 @@ fn language_reference_is_current() {
         doc[start..end] == run.stdout(),
         "docs/language.md's reference is stale: regenerate it with `cargo run -- explain --markdown`"
     );
+}
+
+#[test]
+fn bash_completions_name_the_subcommands() {
+    let run = run_in(&repo(), &["completions", "bash"]);
+    run.ok();
+    for sub in ["build", "check", "bless", "watch", "explain", "completions", "man", "--message-format"] {
+        assert!(run.stdout().contains(sub), "no {sub} in the bash completions");
+    }
+    for shell in ["zsh", "fish", "elvish", "powershell"] {
+        let run = run_in(&repo(), &["completions", shell]);
+        run.ok();
+        assert!(run.stdout().contains("tessera"), "{shell}");
+    }
+}
+
+#[test]
+fn the_man_page_is_roff() {
+    let run = run_in(&repo(), &["man"]);
+    run.ok();
+    // The title header is the first line after the page's string definitions (`.ie`/`.el`).
+    let first = run.stdout().lines().find(|l| !l.starts_with(".ie") && !l.starts_with(".el")).map(str::to_owned);
+    assert!(first.as_deref().is_some_and(|l| l.starts_with(".TH tessera 1")), "{first:?}");
+    assert!(run.stdout().contains("message\\-format"), "the global options are documented");
 }

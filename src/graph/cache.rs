@@ -101,6 +101,21 @@ impl Cache {
         files::write_atomic(&self.path(key), &data)
     }
 
+    /// Keeps the warnings a stage gave beside its entry (under `key.warnings()`).
+    pub fn put_warnings(&self, key: &Key, warnings: &[String]) -> io::Result<()> {
+        let json = serde_json::to_vec(warnings).map_err(io::Error::other)?;
+        self.put(&key.warnings(), &json)
+    }
+
+    /// The warnings kept for the stage with `key` (none when it gave none, or its entry is
+    /// gone or damaged).
+    pub fn warnings(&self, key: &Key) -> Vec<String> {
+        match self.get(&key.warnings()) {
+            Lookup::Hit(bytes) => serde_json::from_slice(&bytes).unwrap_or_default(),
+            Lookup::Miss | Lookup::Corrupt => Vec::new(),
+        }
+    }
+
     /// Makes sure the root is a tessera cache before the first write: creates it with its
     /// marker, or adopts an existing directory that is empty or holds only cache entries.
     fn claim(&self) -> Result<(), String> {
@@ -169,7 +184,8 @@ impl Cache {
             }
         }
         files::sweep_stale(&self.dir);
-        let keep_hex: HashSet<String> = keep.iter().map(|k| k.hex()).collect();
+        // A stage's warnings live and die with its entry.
+        let keep_hex: HashSet<String> = keep.iter().flat_map(|k| [k.hex(), k.warnings().hex()]).collect();
         let shards = std::fs::read_dir(&self.dir).map_err(|e| format!("cannot list `{}`: {e}", self.dir.display()))?;
         for shard in shards.flatten() {
             let prefix = shard.file_name().to_string_lossy().into_owned();

@@ -43,7 +43,8 @@ pub struct StageRecord {
     pub key: Key,
     pub status: Status,
     pub millis: f64,
-    /// What the stage warned about when it ran (empty when it did not run).
+    /// What the stage warned about: when it ran, or, when it was loaded or not needed, when
+    /// it ran for the cache entry (kept beside the entry, `Cache::put_warnings`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
 }
@@ -234,7 +235,7 @@ impl Executor<'_> {
                         key: keys[&n],
                         status: s,
                         millis: t,
-                        warnings: warnings.remove(&n).unwrap_or_default(),
+                        warnings: warnings.remove(&n).unwrap_or_else(|| self.cached_warnings(s, &keys[&n])),
                     })
                 })
                 .collect(),
@@ -317,7 +318,18 @@ impl Executor<'_> {
         };
         // A cache that cannot be written costs speed, not correctness: carry on.
         let _ = self.cache.put(key, &node.stage.encode(&artifact));
+        if !warnings.is_empty() {
+            let _ = self.cache.put_warnings(key, &warnings);
+        }
         (Ok(artifact), warnings)
+    }
+
+    /// The warnings a stage that did not run gave when it ran for its cache entry.
+    fn cached_warnings(&self, status: Status, key: &Key) -> Vec<String> {
+        match status {
+            Status::Hit | Status::Memory | Status::Fresh => self.cache.warnings(key),
+            Status::Ran | Status::Rebuilt => Vec::new(),
+        }
     }
 }
 

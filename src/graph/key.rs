@@ -8,6 +8,15 @@ use super::world::Hash;
 pub struct Key(pub Hash);
 
 impl Key {
+    /// The key under which the cache keeps the warnings of the stage with this key: an
+    /// entry of its own, so a build that loads or skips the stage can report them again.
+    pub fn warnings(&self) -> Key {
+        let mut h = blake3::Hasher::new();
+        h.update(b"tessera.warnings\0");
+        h.update(&self.0);
+        Key(*h.finalize().as_bytes())
+    }
+
     pub fn hex(&self) -> String {
         blake3::Hash::from(self.0).to_hex().to_string()
     }

@@ -229,7 +229,8 @@ impl RunCx<'_> {
     }
 
     /// Reports something the user should know that does not stop the stage (pruned input,
-    /// a fallback taken). Shown when the stage runs; part of the stage report.
+    /// a fallback taken). Part of the stage report, kept with the cache entry and shown again
+    /// on every build that loads or skips the stage.
     pub fn warn(&self, message: impl Into<String>) {
         if let Ok(mut w) = self.warnings.lock() {
             w.push(message.into());

@@ -260,6 +260,11 @@ impl Project {
         self.root.join(&self.manifest.paths.outputs)
     }
 
+    /// The directory a scene's outputs are written to (`out/<scene>`).
+    pub fn outputs_dir(&self, scene: &str) -> PathBuf {
+        self.outputs_root().join(scene)
+    }
+
     fn golden_root(&self) -> PathBuf {
         self.root.join(&self.manifest.paths.golden)
     }

@@ -398,7 +398,7 @@ pub struct Standalone {
 }
 
 /// The image files of a library directory as a scene's `dir` lists them: regular files
-/// with one of [`EXTENSIONS`] (any case), sorted by name.
+/// with one of `EXTENSIONS` (any case), sorted by name.
 pub fn entries(world: &crate::graph::World, dir: &std::path::Path) -> std::io::Result<Vec<PathBuf>> {
     let mut files: Vec<PathBuf> = world
         .list(dir)?

@@ -32,7 +32,7 @@ pub fn fmt(g: &Global, paths: &[PathBuf], check: bool) -> Outcome {
                 if let Err(e) = crate::project::format::rewrite_scene(&file, &formatted) {
                     eprintln!("error: {e}");
                     bad = true;
-                } else {
+                } else if !g.quiet {
                     println!("formatted {}", file.display());
                 }
             }

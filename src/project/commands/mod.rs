@@ -4,6 +4,8 @@
 
 mod explain;
 mod fmt;
+mod generate;
+mod messages;
 mod print;
 mod review;
 mod scenes;
@@ -13,6 +15,8 @@ use std::path::{Path, PathBuf};
 
 pub use explain::explain;
 pub use fmt::fmt;
+pub use generate::{completions, man, Shell};
+pub use messages::{set_message_format, MessageFormat};
 pub use scenes::{bless, scenes, Mode};
 pub use watch::watch;
 
@@ -58,7 +62,7 @@ impl Global {
         let mut p = Project::open(&cwd).map_err(|f| print_failed(&f))?;
         p.sets = self.sets.clone();
         p.seed = self.seed;
-        p.progress = !self.quiet;
+        p.progress = !self.quiet && !messages::json();
         if let Some(m) = self.max_memory {
             p.set_budget(crate::graph::Budget::new(m));
         }
@@ -106,7 +110,7 @@ pub fn similar(g: &Global, dir: &Path, target: &Path, options: &SimilarOptions) 
     if g.timings && !g.quiet {
         print!("{}", super::timings_table(&s.report));
     }
-    print::warnings(&s.report);
+    print::warnings(None, &s.report);
     match &g.report {
         Some(path) => scenes::write_report(
             path,

@@ -1,12 +1,17 @@
 //! What the commands print about a build: diagnostics (rendered by miette, coloured only
-//! on a terminal), stage warnings, the `check` table and one row as `review` shows it.
+//! on a terminal), stage warnings, where a scene's outputs went, the `check` table and one
+//! row as `review` shows it; with `--message-format json`, the same as JSON lines (`messages`).
+
+use std::path::Path;
 
 use miette::{GraphicalReportHandler, GraphicalTheme};
+use serde_json::json;
 
-use super::Reported;
+use super::messages;
+use super::{Global, Reported};
 use crate::graph::Report;
 use crate::lang::{self, Diagnostics};
-use crate::project::{CheckRow, CheckStatus, Failed};
+use crate::project::{self, Built, CheckRow, CheckStatus, Emitted, Failed, Project};
 
 pub(super) fn print_failed(f: &Failed) -> Reported {
     diagnostics(&f.diagnostics);
@@ -14,6 +19,12 @@ pub(super) fn print_failed(f: &Failed) -> Reported {
 }
 
 pub(super) fn diagnostics(d: &Diagnostics) {
+    if messages::json() {
+        for item in &d.items {
+            messages::emit(messages::diagnostic(item, &d.sources));
+        }
+        return;
+    }
     // Colour only on a terminal; plain unicode otherwise, so logs and tests read cleanly.
     let theme = if std::io::IsTerminal::is_terminal(&std::io::stderr()) && std::env::var_os("NO_COLOR").is_none() {
         GraphicalTheme::unicode()
@@ -32,15 +43,95 @@ pub(super) fn diagnostics(d: &Diagnostics) {
     }
 }
 
-pub(super) fn warnings(report: &Report) {
+/// The warnings of a build's stages (of `scene`, when they belong to one), on stderr.
+pub(super) fn warnings(scene: Option<&str>, report: &Report) {
     for s in &report.stages {
         for w in &s.warnings {
-            eprintln!("warning: {}: {w}", s.label);
+            if messages::json() {
+                messages::emit(messages::stage_warning(scene, &s.label, w));
+            } else {
+                eprintln!("warning: {}: {w}", s.label);
+            }
         }
     }
 }
 
+/// What one scene's build did: its stages and where its outputs went (unless `-q`), with
+/// `--timings` each stage's time.
+pub(super) fn built(g: &Global, p: &Project, scene: &Path, built: &Built, emitted: &[Emitted]) {
+    if messages::json() {
+        messages::stages(&built.name, &built.report);
+        messages::outputs(&built.name, emitted);
+        return;
+    }
+    if g.quiet {
+        return;
+    }
+    let ran = built.report.ran().count();
+    let written = emitted.iter().filter(|e| e.written).count();
+    println!(
+        "{}: {} stages, {} ran, {} cached; {} of {} outputs written ({:.1} ms)",
+        scene.display(),
+        built.report.stages.len(),
+        ran,
+        built.report.stages.len() - ran,
+        written,
+        emitted.len(),
+        built.millis
+    );
+    let dir = p.outputs_dir(&built.name);
+    let dir = dir.strip_prefix(".").unwrap_or(&dir);
+    match written {
+        0 => println!("  outputs unchanged in {}/", dir.display()),
+        1 => println!("  wrote 1 output to {}/", dir.display()),
+        n => println!("  wrote {n} outputs to {}/", dir.display()),
+    }
+    if g.timings {
+        print!("{}", project::timings_table(&built.report));
+    }
+}
+
+/// What `build`, `check` and `bless` add up to, counted over their scenes.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Tally {
+    pub scenes: usize,
+    pub built: usize,
+    pub outputs: usize,
+    pub written: usize,
+}
+
+/// The last message of `--message-format json` (nothing in human format, whose summary
+/// lines come as the scenes are built).
+/// `checks` are the rows of `check`, `None` for the other commands.
+pub(super) fn summary(command: &str, t: &Tally, checks: Option<&[CheckRow]>, failed: bool) {
+    if !messages::json() {
+        return;
+    }
+    let mut v = json!({
+        "type": "summary",
+        "command": command,
+        "success": !failed,
+        "scenes": t.scenes,
+        "scenes_built": t.built,
+        "outputs": t.outputs,
+        "written": t.written,
+    });
+    if let Some(rows) = checks {
+        let count = |s: CheckStatus| rows.iter().filter(|r| r.status == s).count();
+        v["checks"] = json!({
+            "pass": count(CheckStatus::Pass),
+            "fail": count(CheckStatus::Fail),
+            "missing": count(CheckStatus::Missing),
+        });
+    }
+    messages::emit(v);
+}
+
 pub(super) fn check_table(rows: &[CheckRow]) {
+    if messages::json() {
+        rows.iter().for_each(messages::check);
+        return;
+    }
     println!(
         "\n{:<6} {:<20} {:<28} {:>10} {:>10} {:>14}",
         "status", "scene", "output", "max diff", "tolerance", "failing px"

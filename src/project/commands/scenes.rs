@@ -6,6 +6,7 @@
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
+use super::messages;
 use super::print::{self, print_failed};
 use super::{review, Global, Outcome, Reported};
 use crate::lang::diag::suggest;
@@ -23,6 +24,18 @@ pub enum Mode {
     Bless { prune: bool },
     /// Check, then walk the failing outputs one by one (`tessera review`).
     Review,
+}
+
+impl Mode {
+    /// The command's name: `build`, `check`, `bless` or `review`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Build => "build",
+            Mode::Check => "check",
+            Mode::Bless { .. } => "bless",
+            Mode::Review => "review",
+        }
+    }
 }
 
 /// Outputs picked by `SCENE:OUTPUT` arguments, by scene name; a scene absent here is whole.
@@ -116,9 +129,10 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
     let mut reports = Vec::new();
     let mut builts = Vec::new();
     let mut claims = project::Claims::default();
+    let mut tally = print::Tally { scenes: scenes.len(), ..Default::default() };
     for scene in &scenes {
         p.world.begin_build();
-        let built = match build_and_emit(g, p, scene, &mut claims) {
+        let built = match build_and_emit(g, p, scene, &mut claims, &mut tally) {
             Ok(b) => b,
             Err(Reported) => {
                 failed = true;
@@ -153,6 +167,9 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
         Mode::Review => failed |= review::walk(g, p, &builts, &rows).is_err(),
         Mode::Build | Mode::Bless { .. } => {}
     }
+    tally.built = reports.len();
+    let checked = matches!(mode, Mode::Check | Mode::Review).then_some(&rows[..]);
+    print::summary(mode.name(), &tally, checked, failed);
     if failed {
         Err(Reported)
     } else {
@@ -194,28 +211,20 @@ fn takers_of_sets(p: &Project, scenes: &[PathBuf], quiet: bool) -> Outcome {
 }
 
 /// Builds one scene, claims its outputs against the other scenes' and writes them.
-fn build_and_emit(g: &Global, p: &Project, scene: &Path, claims: &mut project::Claims) -> Result<Built, Reported> {
+fn build_and_emit(
+    g: &Global,
+    p: &Project,
+    scene: &Path,
+    claims: &mut project::Claims,
+    tally: &mut print::Tally,
+) -> Result<Built, Reported> {
     let built = p.build(scene).map_err(|f| print_failed(&f))?;
     claims.claim(&built).map_err(|f| print_failed(&f))?;
     let emitted = p.emit(&built).map_err(|f| print_failed(&f))?;
-    print::warnings(&built.report);
-    if !g.quiet {
-        let ran = built.report.ran().count();
-        let written = emitted.iter().filter(|e| e.written).count();
-        println!(
-            "{}: {} stages, {} ran, {} cached; {} of {} outputs written ({:.1} ms)",
-            scene.display(),
-            built.report.stages.len(),
-            ran,
-            built.report.stages.len() - ran,
-            written,
-            emitted.len(),
-            built.millis
-        );
-        if g.timings {
-            print!("{}", project::timings_table(&built.report));
-        }
-    }
+    print::warnings(Some(&built.name), &built.report);
+    tally.outputs += emitted.len();
+    tally.written += emitted.iter().filter(|e| e.written).count();
+    print::built(g, p, scene, &built, &emitted);
     Ok(built)
 }
 
@@ -245,7 +254,9 @@ fn bless_scene(
     names: &[String],
 ) -> Outcome {
     let paths = p.bless_outputs(built, only).map_err(|f| print_failed(&f))?;
-    if !g.quiet {
+    if messages::json() {
+        messages::blessed(&built.name, &paths);
+    } else if !g.quiet {
         for path in paths {
             println!("  blessed {}", path.display());
         }

@@ -5,6 +5,7 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Duration;
 
+use super::messages;
 use super::print::{self, print_failed};
 use super::{Global, Outcome};
 use crate::graph::Status;
@@ -18,8 +19,12 @@ pub fn watch(g: &Global, scene: &Path, debounce: Duration) -> Outcome {
     project::watch(&mut p, scene, debounce, |ev| {
         match ev {
             WatchEvent::Built { built, emitted, millis } => {
-                print::warnings(&built.report);
-                if !quiet {
+                print::warnings(Some(&built.name), &built.report);
+                if messages::json() {
+                    messages::stages(&built.name, &built.report);
+                    messages::outputs(&built.name, emitted);
+                    messages::emit(serde_json::json!({ "type": "summary", "command": "watch", "success": true }));
+                } else if !quiet {
                     let ran: Vec<String> = built
                         .report
                         .stages
@@ -43,7 +48,11 @@ pub fn watch(g: &Global, scene: &Path, debounce: Duration) -> Outcome {
             }
             WatchEvent::Failed { failed } => {
                 print_failed(failed);
-                println!("[watch] build failed; keeping the previous outputs");
+                if messages::json() {
+                    messages::emit(serde_json::json!({ "type": "summary", "command": "watch", "success": false }));
+                } else {
+                    println!("[watch] build failed; keeping the previous outputs");
+                }
             }
             WatchEvent::Warning(w) => eprintln!("warning: {w}"),
         }

@@ -26,7 +26,7 @@
 //! `(key, id)` (that entry pops first), which keeps about one entry per pixel; the result is
 //! tested bit for bit against textbook flooding.
 //!
-//! Most pixels of an ellipse flood are decided before it runs ([`certify_regions`]): the
+//! Most pixels of an ellipse flood are decided before it runs (`certify_regions`): the
 //! argmin diagram is computed first (parallel, as in argmin mode), and a pixel joined to its
 //! argmin generator's seed by an outward path of non-decreasing distance inside that
 //! generator's argmin region provably gets that generator from the flood, with its entry

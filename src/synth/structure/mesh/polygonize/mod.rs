@@ -12,7 +12,7 @@
 //!    2 regions + the domain border) and the raster corners. Each chain between two junctions
 //!    is traced once (closed loops without a junction get an anchor vertex).
 //! 4. **Region rings.** Each region's boundary is followed chain by chain with the region on
-//!    the left (positive shoelace area with y down, the [`Mesh`] convention). At a corner where
+//!    the left (positive shoelace area with y down, the `Mesh` convention). At a corner where
 //!    a region touches itself diagonally the ring hugs the pixel it came along, so a 4-connected
 //!    region has a single outer ring (possibly touching itself at a vertex). Holes (enclosed regions or
 //!    forbidden areas) give extra rings; they are joined to the outer ring by a *bridge*, a
@@ -32,8 +32,8 @@
 //! Vertices on a chain that borders `OUT` are flagged `on_domain_border`, those on a chain
 //! bordering `NO_REGION` `on_occupancy_border` (stage 2 keeps them fixed).
 //!
-//! One file per step: [`cleanup`] (1), [`cracks`] (2–4), [`simplify`] (5), [`editable`] (6–7)
-//! and [`assemble`] (the rings and the result); this file runs them in order.
+//! One file per step: `cleanup` (1), `cracks` (2–4), `simplify` (5), `editable` (6–7)
+//! and `assemble` (the rings and the result); this file runs them in order.
 
 mod assemble;
 mod cleanup;

@@ -2,7 +2,7 @@
 //! ("micro-positioning", [references: frasson §3.5.4], Algorithms 2 and 3, V13–V15).
 //!
 //! **Association (Algorithm 2).** Every eligible region is associated with its closest
-//! original shape ([`associate`]: smallest turning distance among the originals within
+//! original shape (`associate`: smallest turning distance among the originals within
 //! `±area_tol` of its area, widened up to `max_tol`, then nearest area). The original is
 //! placed with its centroid on the region's centroid and, when allowed, rotated by the best
 //! turning-function rotation; each region vertex then gets a *target* on the placed original:
@@ -75,9 +75,9 @@
 //! collected in order; moves, merges and removals are validated and applied sequentially in
 //! index order. The result is bit-identical for any rayon thread count.
 //!
-//! Files: [`params`] (options and result), [`moves`] (vertex freedom and the validity guard),
-//! [`state`] (the iteration state), [`targets`] (association and targets), [`distribution`]
-//! (the edge-length check), [`merge`] (merges and straightening); this file runs the
+//! Files: `params` (options and result), `moves` (vertex freedom and the validity guard),
+//! `state` (the iteration state), `targets` (association and targets), `distribution`
+//! (the edge-length check), `merge` (merges and straightening); this file runs the
 //! iterations.
 
 use crate::synth::structure::mesh::faces::signed_area;

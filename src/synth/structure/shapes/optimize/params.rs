@@ -4,7 +4,7 @@
 use crate::synth::structure::shapes::associate::{AssociateParams, Association};
 use crate::synth::structure::types::Mesh;
 
-/// Options of [`optimize_shapes`] (`shapes.*`, `polygonize.min_edge`; [references: frasson §3.5.4], tessera's choice).
+/// Options of `optimize_shapes` (`shapes.*`, `polygonize.min_edge`; [references: frasson §3.5.4], tessera's choice).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ShapeParams {
     /// Fraction of the mean target vector applied per iteration (`shapes.step`, 0.2).
@@ -113,7 +113,7 @@ pub enum StopReason {
     NothingToDo,
 }
 
-/// The result of [`optimize_shapes`].
+/// The result of `optimize_shapes`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ShapeResult {
     /// The optimised mesh. Regions keep their indices; merged vertices are removed and the
