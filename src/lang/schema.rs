@@ -29,6 +29,14 @@ pub struct KindSpec {
     pub extent: Extent,
 }
 
+/// In arithmetic, `scene.width` and `scene.height` are the scene's size: a keyword of the
+/// language, which wins over a declaration of that name.
+pub const SCENE_SIZE: &str = "scene";
+
+/// In arithmetic, `surface.width` and `surface.height` are the extent of the declaration
+/// being checked (see [`Extent`]): a keyword, which wins over a declaration of that name.
+pub const OWN_EXTENT: &str = "surface";
+
 /// The size a declaration's relative lengths are taken of: `40%` of its width or height (of
 /// the shorter side for a length with no axis), and what `surface.width` names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -9,11 +9,12 @@
 
 use std::path::Path;
 
+use super::axis::Axis;
 use super::namespace::Checker;
 use crate::lang::ast::{self, Op, ValueKind};
 use crate::lang::diag::Diagnostic;
 use crate::lang::ir::Val;
-use crate::lang::schema::{Extent, Ty, Unit};
+use crate::lang::schema::{Extent, Ty, Unit, OWN_EXTENT, SCENE_SIZE};
 use crate::lang::source::Span;
 
 /// How deep params may refer to params inside an expression.
@@ -22,17 +23,6 @@ const MAX_PARAM_DEPTH: usize = 16;
 /// Most operands one value may evaluate, params expanded: params that each use the next
 /// several times would otherwise grow exponentially (`param a = b + b`, `param b = c + c`, ...).
 const MAX_STEPS: usize = 100_000;
-
-/// Which side of the extent a relative length (`40%`) is a part of.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Axis {
-    /// A length with no axis (a radius, a block): the shorter side.
-    Short,
-    /// The first component of a point or size: the width.
-    X,
-    /// The second: the height.
-    Y,
-}
 
 /// The dimension of an evaluated quantity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -145,7 +135,7 @@ impl Checker<'_> {
             Some("deg") => Q { v: x.to_radians(), dim: Dim::Angle },
             Some("rad") => Q { v: x, dim: Dim::Angle },
             Some("%") if want == Unit::Length => {
-                let Some(extent) = self.axis_extent(span) else { return None };
+                let extent = self.axis_extent(span)?;
                 Q { v: x / 100.0 * extent, dim: Dim::Length }
             }
             Some("%") => Q { v: x / 100.0, dim: Dim::Free },
@@ -183,8 +173,8 @@ impl Checker<'_> {
     /// `scene.width`, `surface.height` (the declaration's own extent), `NAME.width`.
     fn field(&mut self, base: &ast::Ident, field: &ast::Ident, span: Span) -> Option<Q> {
         let extent = match base.text.as_str() {
-            "scene" => Some((self.size.0 as f64, self.size.1 as f64)),
-            "surface" => self.extent,
+            b if b == SCENE_SIZE => Some((self.size.0 as f64, self.size.1 as f64)),
+            b if b == OWN_EXTENT => self.extent,
             name => match self.decls.iter().position(|d| d.name == name) {
                 Some(i) => self.extent_of(i, 0),
                 None => {

@@ -5,6 +5,7 @@
 //! constructor calls), `values` (each value against its type), `expr` (arithmetic and
 //! relative lengths) and `refs` (references, cycles).
 
+mod axis;
 mod expr;
 mod load;
 mod namespace;

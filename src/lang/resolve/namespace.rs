@@ -57,7 +57,7 @@ pub(super) struct Checker<'a> {
     /// What relative lengths of the declaration being checked are of (`None`: refused).
     pub(super) extent: Option<(f64, f64)>,
     /// Which side of it a relative length being checked is a part of.
-    pub(super) axis: super::expr::Axis,
+    pub(super) axis: super::axis::Axis,
     /// Operands evaluated for the value being checked (bounded: see `expr::MAX_STEPS`).
     pub(super) steps: usize,
 }
@@ -80,7 +80,7 @@ impl<'a> Checker<'a> {
             deps: Vec::new(),
             ref_spans: BTreeMap::new(),
             extent: None,
-            axis: super::expr::Axis::Short,
+            axis: super::axis::Axis::Short,
             steps: 0,
         }
     }

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::expr::Axis;
+use super::axis::Axis;
 use super::load::normalize;
 use super::namespace::Checker;
 use crate::lang::ast::{self, ValueKind};

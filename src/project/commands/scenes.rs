@@ -178,14 +178,19 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
 }
 
 /// Which of `scenes` declare each `--set` param: a set no scene takes is an error (a typo
-/// would otherwise go unnoticed); the others say which scenes took them. A scene that does
-/// not compile is left to the build to report.
+/// would otherwise go unnoticed); the others say which scenes took them. When a scene does
+/// not compile, nothing is said: its build reports why.
 fn takers_of_sets(p: &Project, scenes: &[PathBuf], quiet: bool) -> Outcome {
     if p.sets.is_empty() {
         return Ok(());
     }
     let declared: Vec<(&PathBuf, Vec<String>)> =
         scenes.iter().filter_map(|s| p.compile(s).ok().map(|(scene, _)| (s, scene.params))).collect();
+    if declared.len() < scenes.len() {
+        // A scene that does not compile (perhaps because of a set's value) may declare any
+        // param; its build reports what is wrong with it.
+        return Ok(());
+    }
     let mut unknown = Vec::new();
     for (name, value) in &p.sets {
         let takers: Vec<String> =
