@@ -75,7 +75,7 @@ pub fn diff_image(actual: &Image, golden: &Image, tol: &Tolerance) -> Image {
 
 /// Display gray level of a pixel in `[0, 1]`: Rec. 709 luma of the first three
 /// channels, or channel 0 for gray images; NaN counts as black.
-fn gray(img: &Image, x: usize, y: usize) -> f32 {
+pub(super) fn gray(img: &Image, x: usize, y: usize) -> f32 {
     let v = match img.channels {
         0 => 0.0,
         1 | 2 => img.get(x, y, 0),

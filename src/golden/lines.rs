@@ -2,7 +2,8 @@
 //! lost, and what the output drew that the golden did not, over a faded copy of the golden.
 
 use super::compare::sample_diff;
-use crate::raster::{check_layout, color::REC709, Image};
+use super::diff::gray;
+use crate::raster::{check_layout, Image};
 
 /// Marked where only the golden has ink: the output removed it.
 pub const REMOVED: [f32; 3] = [0.9, 0.0, 0.0];
@@ -142,21 +143,6 @@ fn differs(a: &Image, g: &Image, channels: usize, x: usize, y: usize) -> bool {
 fn faded(v: f32) -> [f32; 3] {
     let f = 1.0 - FADED_CONTRAST + FADED_CONTRAST * v;
     [f, f, f]
-}
-
-/// Display gray level in `[0, 1]`: Rec. 709 luma of the first three channels, or channel 0
-/// for gray images; NaN counts as black.
-fn gray(img: &Image, x: usize, y: usize) -> f32 {
-    let v = match img.channels {
-        0 => 0.0,
-        1 | 2 => img.get(x, y, 0),
-        _ => (0..3).map(|c| REC709[c] * img.get(x, y, c)).sum(),
-    };
-    if v.is_nan() {
-        0.0
-    } else {
-        v.clamp(0.0, 1.0)
-    }
 }
 
 #[cfg(test)]

@@ -67,6 +67,12 @@ fn truncate(s: &str, n: usize) -> &str {
     }
 }
 
+/// A path's last component as text (empty for `..` or a root): how messages and tables name
+/// a file.
+pub fn name_of(path: &Path) -> String {
+    path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
 /// The normal form of a relative path that must stay below its root: `.` components and
 /// doubled separators dropped; `..`, absolute paths, over-long and reserved names refused.
 /// Two outputs are the same file exactly when their normal forms are equal.

@@ -225,7 +225,7 @@ impl RunCx<'_> {
 
     /// The final component of input file `i`'s path, as messages name it.
     pub fn file_name(&self, i: usize) -> String {
-        self.files[i].file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+        super::files::name_of(&self.files[i])
     }
 
     /// Reports something the user should know that does not stop the stage (pruned input,

@@ -25,7 +25,7 @@ pub fn rewrite_scene(path: &Path, text: &str) -> Result<(), String> {
         ));
     }
     let dir = target.parent().unwrap_or(Path::new("."));
-    let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = crate::graph::files::name_of(&target);
     let tmp = dir.join(format!(".{name}.{}.{}.tmp", std::process::id(), TMP_COUNTER.fetch_add(1, Ordering::Relaxed)));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;

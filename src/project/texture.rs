@@ -83,8 +83,7 @@ pub fn similar(p: &Project, dir: &Path, target: &Path, o: &SimilarOptions) -> Re
         axes.push(Axis::Orientation);
     }
     let compares_nothing = axes.is_empty();
-    let names: Vec<String> =
-        files.iter().map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()).collect();
+    let names: Vec<String> = files.iter().map(|f| crate::graph::files::name_of(f)).collect();
     let mut graph = Graph::default();
     let query = kinds::plan_standalone(
         &mut graph,

@@ -175,7 +175,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Index>, Diagnostic> {
     let mut names = Vec::with_capacity(files.len());
     let mut features = Vec::with_capacity(files.len());
     for f in &files {
-        let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let name = crate::graph::files::name_of(f);
         let stage = features_stage(params);
         let node = p.add(format!("library {} ({name})", d.name), stage, Inputs::new(), vec![(f.clone(), span)]);
         features.push(inputs.add(node));
@@ -423,8 +423,7 @@ pub fn plan_standalone(graph: &mut crate::graph::Graph, q: Standalone) -> Handle
     let features = |graph: &mut crate::graph::Graph, file: &PathBuf, label: String| {
         graph.add_typed(label, features_stage(params), Inputs::new(), vec![file.clone()], 0)
     };
-    let names: Vec<String> =
-        q.files.iter().map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()).collect();
+    let names: Vec<String> = q.files.iter().map(|f| crate::graph::files::name_of(f)).collect();
     let nodes: Vec<Handle<Features>> =
         q.files.iter().zip(&names).map(|(f, name)| features(graph, f, format!("library ({name})"))).collect();
     let target = match q.files.iter().position(|f| *f == q.target) {

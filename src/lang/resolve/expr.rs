@@ -301,8 +301,7 @@ impl Checker<'_> {
             Extent::Prop(prop) => {
                 let Some(v) = written(prop) else { return scene };
                 let (errors, deps) = (self.errors.len(), self.deps.len());
-                let dir = self.sources.get(file).path.parent().unwrap_or(Path::new("")).to_path_buf();
-                let size = self.check_value(&v, &Ty::Size, &dir, 0);
+                let size = self.check_value(&v, &Ty::Size, &self.dir_of(file), 0);
                 self.errors.truncate(errors);
                 self.deps.truncate(deps);
                 match size {

@@ -60,7 +60,7 @@ impl Checker<'_> {
         self.out.sort_by_key(|d| pos[d.name.as_str()]);
     }
 
-    fn dir_of(&self, file: FileId) -> PathBuf {
+    pub(super) fn dir_of(&self, file: FileId) -> PathBuf {
         self.sources.get(file).path.parent().unwrap_or(Path::new("")).to_path_buf()
     }
 
