@@ -124,6 +124,9 @@ fn arithmetic_errors_point_at_what_is_wrong() {
         ("blur = min()", "`min` takes at least one value"),
         ("blur = 2 * (3 - 3) + 1 / 0.0", "division by zero"),
         ("threshold = 10 px / 2", "expected a plain number, found a length"),
+        ("blur = 1e38 * 10", "overflows when converted"),
+        ("blur = -5%", "value out of range"),
+        ("blur = 1e-30 * 1e-30", "rounds to 0 in 32-bit floats"),
     ];
     for (line, message) in cases {
         let p = Project::new(&[(
