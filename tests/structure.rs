@@ -328,3 +328,61 @@ fn a_size_map_shrinks_regions_through_lloyd_in_both_modes() {
     assert!((l / want - 1.0).abs() < 0.35, "fixed: left mean area {l}, want about {want}");
     assert!((r / plain - 1.0).abs() < 0.35, "fixed: right mean area {r}, {plain} without a map");
 }
+
+/// A running-bond wall painted as flat colours, one per brick (24 × 12 px, rows offset by
+/// half a brick), on a 144 × 96 canvas: 27 bricks do not touch the border.
+fn painted_bricks(mortar: bool) -> Vec<u8> {
+    let img = tessera::raster::Image::from_fn(144, 96, 3, |x, y, c| {
+        let row = y / 12;
+        let shifted = x + if row % 2 == 1 { 12 } else { 0 };
+        let col = shifted / 24;
+        if mortar && (y % 12 == 0 || shifted % 24 == 0) {
+            return 0.0;
+        }
+        // A distinct colour per (row, column): the brick's index spread over the channels.
+        let id = (row * 8 + col + 1) as u32;
+        [(id * 37) % 251, (id * 91) % 241, (id * 17) % 239][c] as f32 / 255.0
+    });
+    common::png(&img)
+}
+
+const PAINTED: &str = r#"
+scene { seed = 1  size = 192 x 128 }
+sample s { structure = "bricks.png" }
+surface t { plane = 192 x 128 }
+structure st {
+  from = s
+  on = t
+  lloyd { iterations = 5 }
+}
+output "stats.json" {
+  from = st
+  view = stats
+}
+"#;
+
+#[test]
+fn a_painted_label_image_is_a_structure_sample_one_region_per_colour_patch() {
+    let p = Project::new(&[("scene.tess", PAINTED)]);
+    p.write_bytes("bricks.png", &painted_bricks(false));
+    p.tessera(&["build", "scene.tess"]).ok();
+    let stats: serde_json::Value = serde_json::from_slice(&p.read("out/scene/stats.json")).expect("json");
+    let counts = &stats["counts"]["sample"];
+    assert_eq!(counts["regions_used"], 27, "{counts}");
+    let area = stats["counts"]["mean_region_area_sample"].as_f64().unwrap();
+    assert!((area - 288.0).abs() < 1e-6, "mean brick area {area}, painted 24 x 12 = 288");
+    let ratio = stats["axes_ratio"]["mean_sample"].as_f64().unwrap();
+    assert!((ratio - 2.0).abs() < 0.05, "a 24 x 12 brick has axis ratio 2, got {ratio}");
+
+    // Painted mortar is a colour like any other: one connected region that touches the
+    // border, so it is a border region and stays out of the statistics; the bricks it
+    // separates (23 × 11 px each now) are the regions learned from. With a mortar line at
+    // the top and the left of every brick, 35 bricks touch no border: 5 in each of the
+    // rows 0–6 (the last column of even rows and the half bricks of odd rows touch it).
+    p.write_bytes("bricks.png", &painted_bricks(true));
+    p.tessera(&["build", "scene.tess"]).ok();
+    let stats: serde_json::Value = serde_json::from_slice(&p.read("out/scene/stats.json")).expect("json");
+    assert_eq!(stats["counts"]["sample"]["regions_used"], 35, "{}", stats["counts"]);
+    let area = stats["counts"]["mean_region_area_sample"].as_f64().unwrap();
+    assert!((area - 253.0).abs() < 1e-6, "mean brick area {area}, painted 23 x 11 = 253");
+}

@@ -1,14 +1,74 @@
 //! Progress display for long stages, only on a terminal and only once a stage has run for a
 //! moment, so quick builds print nothing but their summary. Stages that report progress
-//! get a bar; the others a spinner with their name and elapsed time.
+//! get a bar; the others a spinner with their name and elapsed time. A command that builds
+//! several scenes shows a bar of scenes above them ([`ScenesBar`]); every bar is drawn by
+//! one `MultiProgress`, so stage bars nest under the scene bar.
 
 use std::io::IsTerminal;
-use std::sync::{Arc, Condvar, Mutex};
+use std::sync::{Arc, Condvar, Mutex, OnceLock};
 use std::time::Duration;
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 const SHOW_AFTER: Duration = Duration::from_millis(400);
+
+/// The one set of bars on stderr: two `MultiProgress`es would draw over each other.
+fn bars() -> &'static MultiProgress {
+    static BARS: OnceLock<MultiProgress> = OnceLock::new();
+    BARS.get_or_init(|| MultiProgress::with_draw_target(ProgressDrawTarget::stderr()))
+}
+
+/// The scenes of a multi-scene command: `[===>   ] 3/45 scenes/wall.tess`, drawn above the
+/// stage bars. Shown only on a terminal, only when enabled and only for two or more scenes.
+pub struct ScenesBar {
+    bar: Option<ProgressBar>,
+}
+
+impl ScenesBar {
+    pub fn new(scenes: usize, enabled: bool) -> Self {
+        if !enabled || scenes < 2 || !std::io::stderr().is_terminal() {
+            return ScenesBar { bar: None };
+        }
+        let bar = ProgressBar::with_draw_target(Some(scenes as u64), ProgressDrawTarget::hidden());
+        if let Ok(style) = ProgressStyle::with_template("{prefix:>24} [{bar:30}] {pos}/{len} {msg}") {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        bar.set_prefix("scenes");
+        let bar = bars().add(bar);
+        ScenesBar { bar: Some(bar) }
+    }
+
+    /// Scene `name` is being built.
+    pub fn start(&self, name: &str) {
+        if let Some(b) = &self.bar {
+            b.set_message(name.to_string());
+        }
+    }
+
+    /// The current scene is done.
+    pub fn advance(&self) {
+        if let Some(b) = &self.bar {
+            b.inc(1);
+        }
+    }
+
+    /// Runs `f` (which prints) with the bars hidden, so its lines do not tear them.
+    pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
+        match &self.bar {
+            Some(_) => bars().suspend(f),
+            None => f(),
+        }
+    }
+}
+
+impl Drop for ScenesBar {
+    fn drop(&mut self) {
+        if let Some(b) = self.bar.take() {
+            b.finish_and_clear();
+            bars().remove(&b);
+        }
+    }
+}
 
 #[derive(Default)]
 struct Shared {
@@ -39,22 +99,23 @@ impl Progress {
             if shared.done {
                 return;
             }
-            let bar = match shared.position {
+            // Styled while hidden, then added to the set: drawn before, it would leave a
+            // stray line in the default style.
+            let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
+            bar.set_message(label);
+            match shared.position {
                 Some((done, total)) => {
-                    let b = ProgressBar::new(total);
-                    b.set_position(done);
-                    b.set_style(bar_style());
-                    b
+                    bar.set_style(bar_style());
+                    bar.set_length(total);
+                    bar.set_position(done);
                 }
                 None => {
-                    let b = ProgressBar::new_spinner();
                     if let Ok(style) = ProgressStyle::with_template("{spinner} {msg} {elapsed}") {
-                        b.set_style(style);
+                        bar.set_style(style);
                     }
-                    b
                 }
-            };
-            bar.set_message(label);
+            }
+            let bar = bars().add(bar);
             bar.enable_steady_tick(Duration::from_millis(120));
             shared.bar = Some(bar);
         });
@@ -81,6 +142,7 @@ impl Progress {
             shared.done = true;
             if let Some(b) = shared.bar.take() {
                 b.finish_and_clear();
+                bars().remove(&b);
             }
         }
         cvar.notify_all();

@@ -338,17 +338,33 @@ pub fn markdown(spec: &KindSpec) -> String {
     };
     out.push_str(&format!("### `{}{} {{ … }}`\n\n{}\n\n", spec.name, name_hint, spec.doc));
     markdown_props(spec.props, &mut out);
-    for p in spec.props {
-        if let Ty::Source { calls, .. } | Ty::Calls(calls) = &p.ty {
-            out.push_str(&format!("\nConstructors for `{}`:\n\n", p.name));
-            for c in calls.iter() {
-                let args: Vec<&str> = c.args.iter().map(|a| a.name).collect();
-                out.push_str(&format!("#### `{}({})`\n\n{}\n\n", c.name, args.join(", "), c.doc));
-                markdown_props(c.args, &mut out);
+    markdown_nested(spec.props, "", &mut out);
+    out
+}
+
+/// The blocks and constructors a property table mentions, each with its own table; `path`
+/// names the enclosing block (`lloyd.` …) so nested headings stay unambiguous.
+fn markdown_nested(props: &[PropSpec], path: &str, out: &mut String) {
+    for p in props {
+        match &p.ty {
+            Ty::Source { calls, .. } | Ty::Calls(calls) => {
+                out.push_str(&format!("\nConstructors for `{path}{}`:\n\n", p.name));
+                for (i, c) in calls.iter().enumerate() {
+                    let args: Vec<&str> = c.args.iter().map(|a| a.name).collect();
+                    let gap = if i == 0 { "" } else { "\n" };
+                    out.push_str(&format!("{gap}#### `{}({})`\n\n{}\n\n", c.name, args.join(", "), c.doc));
+                    markdown_props(c.args, out);
+                    markdown_nested(c.args, &format!("{}.", c.name), out);
+                }
             }
+            Ty::Block(inner) => {
+                out.push_str(&format!("\n#### `{path}{} {{ … }}`\n\n{}\n\n", p.name, p.doc));
+                markdown_props(inner, out);
+                markdown_nested(inner, &format!("{path}{}.", p.name), out);
+            }
+            _ => {}
         }
     }
-    out
 }
 
 fn markdown_props(props: &[PropSpec], out: &mut String) {

@@ -50,6 +50,14 @@ pub struct Failed {
     pub report: Option<Report>,
 }
 
+impl std::fmt::Display for Failed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.diagnostics.fmt(f)
+    }
+}
+
+impl std::error::Error for Failed {}
+
 impl From<Diagnostics> for Failed {
     fn from(diagnostics: Diagnostics) -> Self {
         Failed { diagnostics, report: None }

@@ -4,7 +4,10 @@ pub mod fft;
 pub mod library;
 pub mod map;
 pub mod metrics;
+pub mod progress;
 pub mod quilt;
 pub mod rng;
 pub mod structure;
 pub mod surface;
+
+pub use progress::Progress;

@@ -23,6 +23,7 @@ use crate::synth::quilt::{
     self, Coherence, Guide, Orientation, QuiltError, QuiltOptions, QuiltParams, QuiltResult, SampleChoice, Terms,
 };
 use crate::synth::surface::Plane;
+use crate::synth::Progress;
 
 mod spec;
 pub use spec::SPEC;
@@ -238,7 +239,8 @@ fn run_quilt(cx: &RunCx, q: &Quilting) -> Result<QuiltResult, StageError> {
     let guide_weight = map(wiring.guide_weight, "guide_weight", &[1])?;
     // A full plane constrains nothing; leave it out so the fast path stays open.
     let occupancy = plane.as_ref().filter(|pl| pl.occupancy.data.iter().any(|&v| v <= 0.5)).map(|pl| &pl.occupancy);
-    let mut options = QuiltOptions { occupancy, ..QuiltOptions::default() };
+    let report = |done, total| cx.progress(done, total);
+    let mut options = QuiltOptions { occupancy, progress: Progress::new(&report), ..QuiltOptions::default() };
     if let Some(g) = &guide {
         if g.channels > sample.channels {
             return Err(StageError::new(format!(
@@ -427,19 +429,21 @@ fn run_blend(cx: &RunCx, b: &Blending) -> Result<Image, StageError> {
     if mask.channels == 2 {
         return Err(StageError::new("the mask must be scalar, not an orientation field").at_prop("mask"));
     }
+    let report = |done, total| cx.progress(done, total);
+    let run = blend::Run { progress: Progress::new(&report), ..blend::Run::default() };
     let result = if n == 2 {
         match threshold {
             Some(t) => {
                 let binary = m::threshold(&mask, t);
-                blend::blend(&refs, Selector::Binary(&binary), params)
+                blend::blend_with(&refs, Selector::Binary(&binary), params, &run)
             }
-            None => blend::blend(&refs, Selector::Soft(&mask), params),
+            None => blend::blend_with(&refs, Selector::Soft(&mask), params, &run),
         }
     } else {
         let top = (n - 1) as f32;
         let labels: Vec<u32> =
             mask.plane(0).iter().map(|&v| (v.clamp(0.0, 1.0) * top).round() as u32).collect::<Vec<_>>();
-        blend::blend(&refs, Selector::Labels(&labels), params)
+        blend::blend_with(&refs, Selector::Labels(&labels), params, &run)
     }
     .map_err(blend_error)?;
     warn_unconverged(cx, &result.reports);

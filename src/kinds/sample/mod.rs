@@ -61,7 +61,7 @@ pub static SPEC: KindSpec = KindSpec {
             name: "structure",
             ty: Ty::Path,
             default: Default::Absent,
-            doc: "A structure file (planar subdivision), passed through to `structure` declarations.",
+            doc: "The drawn structure that `structure` declarations learn from: a planar subdivision in JSON, or a painted label image (PNG or EXR, one flat colour per region).",
         },
     ],
 };

@@ -33,6 +33,7 @@ use crate::synth::structure::relaxation::metric::MetricKind;
 use crate::synth::structure::shapes::optimize::{self, ShapeParams};
 use crate::synth::structure::{Ellipse, Point};
 use crate::synth::surface::Plane;
+use crate::synth::Progress;
 
 mod codecs;
 mod spec;
@@ -651,6 +652,7 @@ fn relax(cx: &RunCx, s: &Relaxing) -> Result<Relaxed, StageError> {
     let g = cx.get(s.generators);
     let plane = cx.get(s.surface);
     let m = prepare_maps(cx, s.maps, s.w, s.h)?;
+    let report = |done, total| cx.progress(done, total);
     let controls = Controls {
         density: m.density.as_deref(),
         density_params: s.density,
@@ -660,6 +662,7 @@ fn relax(cx: &RunCx, s: &Relaxing) -> Result<Relaxed, StageError> {
         metric: m.metric.as_deref(),
         size: m.size.as_deref(),
         size_mode: s.size_mode,
+        progress: Progress::new(&report),
     };
     let r = lloyd::lloyd(s.w, s.h, &g.set.ellipses, Some(&g.set.frozen), &controls, &s.lloyd);
     Ok(Relaxed {

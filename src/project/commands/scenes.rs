@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use super::messages;
 use super::print::{self, print_failed};
 use super::{review, Global, Outcome, Reported};
+use crate::graph::progress::ScenesBar;
 use crate::lang::diag::suggest;
 use crate::project::{self, Built, CheckRow, CheckStatus, Failed, Project};
 
@@ -130,30 +131,32 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
     let mut builts = Vec::new();
     let mut claims = project::Claims::default();
     let mut tally = print::Tally { scenes: scenes.len(), ..Default::default() };
+    let bar = ScenesBar::new(scenes.len(), p.progress);
     for scene in &scenes {
+        bar.start(&print::shown(scene).display().to_string());
         p.world.begin_build();
-        let built = match build_and_emit(g, p, scene, &mut claims, &mut tally) {
-            Ok(b) => b,
-            Err(Reported) => {
-                failed = true;
-                continue;
-            }
+        let built = build_and_emit(g, p, scene, &mut claims, &mut tally, &bar);
+        bar.advance();
+        let Ok(built) = built else {
+            failed = true;
+            continue;
         };
         reports.push(serde_json::json!({
             "scene": scene.display().to_string(),
             "millis": built.millis,
             "stages": built.report.stages,
         }));
-        let done = match mode {
+        let done = bar.suspend(|| match mode {
             Mode::Build => Ok(()),
             Mode::Bless { prune } => bless_scene(g, p, &built, selection.of(&built.name), prune, &names),
             Mode::Check | Mode::Review => check_scene(p, &built, &names, &mut rows),
-        };
+        });
         failed |= done.is_err();
         if mode == Mode::Review {
             builts.push(built);
         }
     }
+    drop(bar);
     if let Some(path) = &g.report {
         if write_report(path, serde_json::json!({ "scenes": reports })).is_err() {
             failed = true;
@@ -222,15 +225,19 @@ fn build_and_emit(
     scene: &Path,
     claims: &mut project::Claims,
     tally: &mut print::Tally,
+    bar: &ScenesBar,
 ) -> Result<Built, Reported> {
-    let built = p.build(scene).map_err(|f| print_failed(&f))?;
-    claims.claim(&built).map_err(|f| print_failed(&f))?;
-    let emitted = p.emit(&built).map_err(|f| print_failed(&f))?;
-    print::warnings(Some(&built.name), &built.report);
-    tally.outputs += emitted.len();
-    tally.written += emitted.iter().filter(|e| e.written).count();
-    print::built(g, p, scene, &built, &emitted);
-    Ok(built)
+    let built = p.build(scene);
+    bar.suspend(|| {
+        let built = built.map_err(|f| print_failed(&f))?;
+        claims.claim(&built).map_err(|f| print_failed(&f))?;
+        let emitted = p.emit(&built).map_err(|f| print_failed(&f))?;
+        print::warnings(Some(&built.name), &built.report);
+        tally.outputs += emitted.len();
+        tally.written += emitted.iter().filter(|e| e.written).count();
+        print::built(g, p, scene, &built, &emitted);
+        Ok(built)
+    })
 }
 
 /// Compares a scene's outputs with its goldens (rows added to `rows`) and warns about

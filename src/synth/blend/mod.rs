@@ -67,20 +67,18 @@ pub fn blend_two(a: &Image, b: &Image, mask: &Image, params: &BlendParams) -> Re
 
 /// Blends `sources` under `selector`. See the module documentation for the semantics.
 pub fn blend(sources: &[&Image], selector: Selector<'_>, params: &BlendParams) -> Result<Blended, BlendError> {
-    blend_warm(sources, selector, params, None)
+    blend_with(sources, selector, params, &Run::default())
 }
 
-/// [`blend`] with a warm start: inside the domain the iterative solvers start from `warm`
-/// (e.g. the previous result while a cutoff is edited). The converged result differs from a
-/// cold start by less than the tolerance, not bitwise.
-pub fn blend_warm(
+/// [`blend`] with a warm start or a progress callback.
+pub fn blend_with(
     sources: &[&Image],
     selector: Selector<'_>,
     params: &BlendParams,
-    warm: Option<&Image>,
+    run: &Run<'_>,
 ) -> Result<Blended, BlendError> {
-    setup::validate(sources, &selector, params, warm)?;
-    let (image, reports) = setup::blend_all(sources, &selector, params, warm);
+    setup::validate(sources, &selector, params, run.warm)?;
+    let (image, reports) = setup::blend_all(sources, &selector, params, run);
     Ok(Blended { image, reports })
 }
 

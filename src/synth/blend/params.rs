@@ -262,3 +262,14 @@ impl fmt::Display for BlendError {
 }
 
 impl std::error::Error for BlendError {}
+
+/// How a blend runs, apart from what it computes.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Run<'a> {
+    /// A warm start: inside the domain the iterative solvers start from it (e.g. the
+    /// previous result while a cutoff is edited). The converged result differs from a cold
+    /// start by less than the tolerance, not bitwise.
+    pub warm: Option<&'a Image>,
+    /// Told the iterations of each iterative solve, out of `max_iter`.
+    pub progress: crate::synth::Progress<'a>,
+}

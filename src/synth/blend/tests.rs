@@ -705,7 +705,9 @@ fn warm_start_converges_to_the_same_result() {
     let b = noise(w, h, 1, 41, 2, 0.0, 255.0);
     let m = blobs(w, h);
     let cold = blend_two(&a, &b, &m, &params()).unwrap();
-    let warm = blend_warm(&[&a, &b], Selector::Binary(&m), &params(), Some(&cold.image)).unwrap();
+    let warm =
+        blend_with(&[&a, &b], Selector::Binary(&m), &params(), &Run { warm: Some(&cold.image), ..Run::default() })
+            .unwrap();
     assert!(warm.reports[0].iterations <= 1, "{:?}", warm.reports[0]);
     let d = warm.image.data.iter().zip(&cold.image.data).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
     assert!(d <= 1e-3, "{d}");
@@ -812,4 +814,26 @@ fn batched_channels_match_single_channel_solves_bitwise() {
             assert!(all.reports[c].converged && all.reports[c].residual <= 1e-6, "{:?}", all.reports[c]);
         }
     }
+}
+
+#[test]
+fn progress_counts_solver_iterations_and_changes_nothing() {
+    let (w, h) = (80, 80);
+    let a = noise(w, h, 1, 42, 2, 0.0, 255.0);
+    let b = noise(w, h, 1, 43, 2, 0.0, 255.0);
+    let m = blobs(w, h);
+    let seen = std::sync::Mutex::new(Vec::new());
+    let report = |done, total| seen.lock().unwrap().push((done, total));
+    let run = Run { progress: crate::synth::Progress::new(&report), ..Run::default() };
+    let with = blend_with(&[&a, &b], Selector::Binary(&m), &params(), &run).unwrap();
+    let without = blend_two(&a, &b, &m, &params()).unwrap();
+    assert_eq!(with.image.data, without.image.data, "reporting changed the result");
+    let seen = seen.into_inner().unwrap();
+    let iterations = with.reports[0].iterations as u64;
+    assert!(iterations > 0);
+    let max_iter = params().solver.max_iter as u64;
+    assert!(seen.iter().all(|&(_, total)| total == max_iter), "{seen:?}");
+    // One report per iteration of each solve (refinement rounds start again from 1).
+    assert_eq!(seen.len() as u64, iterations, "{seen:?}");
+    assert!(seen.windows(2).all(|p| p[1].0 == p[0].0 + 1 || p[1].0 == 1), "{seen:?}");
 }

@@ -176,6 +176,8 @@ pub struct QuiltOptions<'a> {
     /// Per sample, an optional sample-sized 1-channel map of allowed top-left candidate positions
     /// (value > 0.5 = allowed), e.g. Frasson's "block pallet" restricted to region interiors.
     pub allowed: Vec<Option<&'a Image>>,
+    /// Told the number of blocks placed after each wave.
+    pub progress: crate::synth::Progress<'a>,
 }
 
 impl Default for QuiltOptions<'_> {
@@ -188,6 +190,7 @@ impl Default for QuiltOptions<'_> {
             choice: SampleChoice::All,
             orientation: None,
             allowed: Vec::new(),
+            progress: crate::synth::Progress::none(),
         }
     }
 }

@@ -862,3 +862,26 @@ fn invalid_inputs_give_their_error_variant() {
         "block size 40 does not fit in sample 0 (32x32): use a smaller block or a larger sample"
     );
 }
+
+#[test]
+fn progress_counts_placed_blocks_and_changes_nothing() {
+    let s = noise_texture(48, 3, 4, 31);
+    let p = params(120, 96, 16, 4, 7);
+    let mask = Image::from_fn(120, 96, 1, |x, _, _| if x < 90 { 1.0 } else { 0.0 });
+    let seen = std::sync::Mutex::new(Vec::new());
+    let report = |done, total| seen.lock().unwrap().push((done, total));
+    let o = QuiltOptions {
+        occupancy: Some(&mask),
+        progress: crate::synth::Progress::new(&report),
+        ..QuiltOptions::default()
+    };
+    let with = quilt_with(&[&s], &p, &o).unwrap();
+    let without = quilt_with(&[&s], &p, &QuiltOptions { occupancy: Some(&mask), ..QuiltOptions::default() }).unwrap();
+    assert_eq!(with.image.data, without.image.data, "reporting changed the result");
+    let seen = seen.into_inner().unwrap();
+    // Blocks outside the occupancy are never placed, so the total is what is quilted.
+    let placed = with.blocks.len() as u64;
+    assert!(seen.iter().all(|&(_, total)| total == placed), "{seen:?}");
+    assert_eq!(seen.last(), Some(&(placed, placed)));
+    assert!(seen.windows(2).all(|w| w[0].0 < w[1].0), "one report per wave, increasing: {seen:?}");
+}

@@ -66,6 +66,7 @@ pub(crate) struct Stop {
 /// iterations (it keeps its values while other lanes go on); lanes past `stops.len()` must
 /// be zero and stay zero. On entry `r` holds the right-hand sides; on exit the final
 /// residuals. `u` must be zero on fixed cells.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn solve<V: Pooled>(
     hier: &Hierarchy,
     bufs: &mut SolveBuffers<V>,
@@ -74,6 +75,7 @@ pub(crate) fn solve<V: Pooled>(
     stops: &[Stop],
     driver: Driver,
     cp: CycleParams,
+    progress: crate::synth::Progress<'_>,
 ) -> Vec<IterStats> {
     let lv = &hier.levels[0];
     let nl = stops.len().min(V::N);
@@ -129,6 +131,7 @@ pub(crate) fn solve<V: Pooled>(
                 let alpha = std::array::from_fn(|k| if active[k] { 1.0 } else { 0.0 });
                 let (rr, rmax) = lv.cg_update(u, r, &ws.x[0], alpha);
                 it += 1;
+                progress.report(it, max_iter);
                 if !retire(it, &rr, &rmax, &mut active) {
                     break;
                 }
@@ -156,6 +159,7 @@ pub(crate) fn solve<V: Pooled>(
                 let alpha = std::array::from_fn(|k| if active[k] { rz[k] / pq[k] } else { 0.0 });
                 let (rr, rmax) = lv.cg_update(u, r, p, alpha);
                 it += 1;
+                progress.report(it, max_iter);
                 if !retire(it, &rr, &rmax, &mut active) {
                     break;
                 }

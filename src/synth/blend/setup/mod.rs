@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use super::lanes::{F32x4, Lanes, Pooled};
 use super::multigrid::{self, CycleParams, Driver, Hierarchy, Level, SolveBuffers, Stop};
 use super::params::WrapGuidance;
-use super::params::{BlendParams, Method, Mode, Seam, Selector, SolveReport, SolverKind, Topology};
+use super::params::{BlendParams, Method, Mode, Run, Seam, Selector, SolveReport, SolverKind, Topology};
 use super::spectral::{solve_neumann, solve_periodic};
 use crate::raster::Image;
 use grid::{apply_rim, free_pixels, ChanSel, Graph};
@@ -37,7 +37,7 @@ pub(super) fn blend_all(
     sources: &[&Image],
     selector: &Selector<'_>,
     params: &BlendParams,
-    warm: Option<&Image>,
+    run: &Run<'_>,
 ) -> (Image, Vec<SolveReport>) {
     let first = sources[0];
     let (w, h, nc) = (first.width, first.height, first.channels);
@@ -53,7 +53,7 @@ pub(super) fn blend_all(
     for (sel_channel, chans) in groups {
         let group = Group::new(sources, selector, params, sel_channel);
         let outs: Vec<&mut [f32]> = chans.iter().map(|&c| planes[c].take().expect("one group per channel")).collect();
-        for (&c, report) in chans.iter().zip(group.blend(sources, params, warm, &chans, outs)) {
+        for (&c, report) in chans.iter().zip(group.blend(sources, params, run, &chans, outs)) {
             reports[c] = Some(report);
         }
     }
@@ -143,7 +143,7 @@ impl<'a> Group<'a> {
         &self,
         sources: &[&Image],
         params: &BlendParams,
-        warm: Option<&Image>,
+        run: &Run<'_>,
         chans: &[usize],
         mut outs: Vec<&mut [f32]>,
     ) -> Vec<SolveReport> {
@@ -215,8 +215,8 @@ impl<'a> Group<'a> {
         for batch in chans.chunks(4) {
             let bo: Vec<&mut [f32]> = outs.by_ref().take(batch.len()).collect();
             reports.extend(match batch.len() {
-                1 => self.solve_masked::<f32>(sources, params, warm, &hier, batch, bo),
-                _ => self.solve_masked::<F32x4>(sources, params, warm, &hier, batch, bo),
+                1 => self.solve_masked::<f32>(sources, params, run, &hier, batch, bo),
+                _ => self.solve_masked::<F32x4>(sources, params, run, &hier, batch, bo),
             });
         }
         reports
@@ -259,7 +259,7 @@ impl<'a> Group<'a> {
         &self,
         sources: &[&Image],
         params: &BlendParams,
-        warm: Option<&Image>,
+        run: &Run<'_>,
         hier: &Hierarchy,
         chans: &[usize],
         mut outs: Vec<&mut [f32]>,
@@ -289,7 +289,7 @@ impl<'a> Group<'a> {
                         (tx, ty, value_range(&srcs))
                     }
                 };
-                if let Some(wm) = warm {
+                if let Some(wm) = run.warm {
                     let wp = wm.plane(c);
                     for i in 0..n {
                         if self.free[i] != 0 {
@@ -331,7 +331,7 @@ impl<'a> Group<'a> {
         // their bound stay at zero.
         for round in 0..=REFINE_ROUNDS {
             lv0.zero(&mut u);
-            let stats = multigrid::solve(hier, &mut bufs, &mut rhs, &mut u, &stops, driver, cp);
+            let stats = multigrid::solve(hier, &mut bufs, &mut rhs, &mut u, &stops, driver, cp, run.progress);
             for (k, st) in stats.iter().enumerate() {
                 iterations[k] += st.iterations;
                 capped[k] |= !st.converged;

@@ -244,6 +244,7 @@ pub(super) fn run(
     let mut records: Vec<Option<BlockRecord>> = vec![None; count as usize];
     let pool: std::sync::Mutex<Vec<Scratch>> = std::sync::Mutex::new(Vec::new());
     let threads = rayon::current_num_threads();
+    let mut placed = 0;
     for wave in waves(&ax, &ay, b) {
         let wave: Vec<(usize, usize)> = wave.into_iter().filter(|&(i, j)| numbers[j * nbx + i].is_some()).collect();
         // Few blocks in the wave: split each block's work instead (results are the same either way).
@@ -274,6 +275,10 @@ pub(super) fn run(
                 });
             }
             records[no as usize] = Some(job.record);
+            placed += 1;
+        }
+        if !wave.is_empty() {
+            o.progress.report(placed, count as usize);
         }
     }
     let blocks: Vec<BlockRecord> = records.into_iter().map(|r| r.expect("every numbered block is placed")).collect();

@@ -98,6 +98,8 @@ pub struct Controls<'a> {
     pub orientation_mode: OrientationMode,
     /// Metric kind per pixel.
     pub metric: Option<&'a [MetricKind]>,
+    /// Told the number of iterations run, out of the most Lloyd may run.
+    pub progress: crate::synth::Progress<'a>,
 }
 
 impl Default for Controls<'_> {
@@ -111,6 +113,7 @@ impl Default for Controls<'_> {
             orientation: None,
             orientation_mode: OrientationMode::Region,
             metric: None,
+            progress: crate::synth::Progress::none(),
         }
     }
 }

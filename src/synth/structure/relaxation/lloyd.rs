@@ -294,6 +294,7 @@ pub fn lloyd(
         }
         let mean = if moved > 0 { sum_d / moved as f64 } else { 0.0 };
         iterations.push(IterationStats { mean_displacement: mean, max_displacement: max_d, energy, orphans });
+        controls.progress.report(iterations.len(), params.max_iters);
         if mean < params.tol {
             converged = true;
             break;
@@ -482,6 +483,22 @@ mod tests {
         );
         assert!(worst <= 1e-3, "energy increased by {worst}");
         assert!(e[e.len() - 1] < e[0]);
+    }
+
+    #[test]
+    fn progress_counts_iterations_and_changes_nothing() {
+        let (w, h) = (128, 96);
+        let mut rng = Rng::new(75);
+        let gens = random_ellipses(&mut rng, 30, w, h, 6.0, 14.0, 2.0);
+        let params = LloydParams { max_iters: 12, tol: 0.0, ..Default::default() };
+        let seen = std::sync::Mutex::new(Vec::new());
+        let report = |done, total| seen.lock().unwrap().push((done, total));
+        let controls = Controls { progress: crate::synth::Progress::new(&report), ..Default::default() };
+        let with = run(w, h, &gens, &controls, &params);
+        let without = run(w, h, &gens, &Controls::default(), &params);
+        assert_eq!(with.labels.data, without.labels.data, "reporting changed the result");
+        let seen = seen.into_inner().unwrap();
+        assert_eq!(seen, (1..=12).map(|i| (i, 12)).collect::<Vec<_>>());
     }
 
     /// F7: anisotropic case converges (mean displacement < tol within max_iters) and the
