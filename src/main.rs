@@ -61,7 +61,8 @@ enum Command {
     Bless {
         #[arg(value_name = "SCENE[:OUTPUT]")]
         targets: Vec<String>,
-        /// Also remove the goldens of outputs the scenes no longer declare.
+        /// Also remove the goldens of outputs the scenes no longer declare, and (with no scene
+        /// named) the golden directories of scenes that are gone.
         #[arg(long)]
         prune: bool,
     },

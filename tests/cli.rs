@@ -73,3 +73,29 @@ fn the_man_page_is_roff() {
     assert!(first.as_deref().is_some_and(|l| l.starts_with(".TH tessera 1")), "{first:?}");
     assert!(run.stdout().contains("message\\-format"), "the global options are documented");
 }
+
+#[test]
+fn quiet_is_honoured_by_every_command_that_reports() {
+    let p = Project::new(&[(
+        "scene.tess",
+        "scene { size = 16 x 16 }\nmap m { from = constant(0.5) }\noutput \"m.png\" { from = m }\n",
+    )]);
+    for args in [
+        &["-q", "build", "scene.tess"][..],
+        &["-q", "bless", "scene.tess"],
+        &["-q", "check", "scene.tess"],
+        &["-q", "fmt", "scene.tess"],
+        &["-q", "gc"],
+    ] {
+        let run = p.tessera(args);
+        run.ok();
+        assert_eq!(run.stdout(), "", "{args:?} printed on stdout");
+        assert_eq!(run.stderr(), "", "{args:?} printed on stderr");
+    }
+    // A failing check still says what failed, and only that.
+    p.write("scene.tess", "scene { size = 16 x 16 }\nmap m { from = constant(0.6) }\noutput \"m.png\" { from = m }\n");
+    let run = p.tessera(&["-q", "check", "scene.tess"]);
+    run.failed();
+    assert!(run.stdout().contains("FAIL") && run.stdout().contains("m.png"), "{}", run.stdout());
+    assert!(run.stdout().contains("check: 0 passed, 1 failed"), "{}", run.stdout());
+}

@@ -115,3 +115,27 @@ fn a_failing_check_reports_each_output() {
     assert_eq!(summary[0]["checks"], serde_json::json!({ "pass": 0, "fail": 1, "missing": 1 }));
     assert_eq!(summary[0]["success"], false);
 }
+
+#[test]
+fn fmt_and_gc_speak_json_too() {
+    let p = Project::new(&[("scene.tess", &SCENE.replace("  blur = 1 px", "blur=1 px"))]);
+    let check = p.tessera(&["--message-format", "json", "fmt", "--check", "scene.tess"]);
+    check.failed();
+    let all = messages(&check);
+    assert_eq!(of_type(&all, "unformatted").len(), 1, "{all:#?}");
+    assert_eq!(all[0]["path"], "scene.tess");
+    let all = messages(p.tessera(&["--message-format", "json", "fmt", "scene.tess"]).ok());
+    assert_eq!(of_type(&all, "formatted").len(), 1, "{all:#?}");
+
+    p.tessera(&["-q", "build", "scene.tess"]).ok();
+    p.write("scene.tess", &SCENE.replace("blur = 1 px", "blur = 2 px"));
+    p.tessera(&["-q", "build", "scene.tess"]).ok();
+    let all = messages(p.tessera(&["--message-format", "json", "gc"]).ok());
+    assert_eq!(all.len(), 1, "{all:#?}");
+    let gc = &all[0];
+    assert_eq!(gc["type"], "gc");
+    assert!(gc["removed"].as_u64().expect("removed") >= 1, "the blur-1 stages are garbage: {gc}");
+    assert!(gc["kept"].as_u64().expect("kept") >= 1, "{gc}");
+    assert!(gc["freed_bytes"].as_u64().expect("freed_bytes") > 0, "{gc}");
+    assert_eq!(gc["foreign"], serde_json::json!([]));
+}

@@ -1,5 +1,6 @@
 //! Golden review: diff images named after the whole output file name and removed on pass,
-//! stale goldens reported by `check` and removed by `bless --prune` (nothing else),
+//! stale goldens (and those of deleted scenes) reported by `check` and removed by
+//! `bless --prune` (nothing else),
 //! `bless SCENE:OUTPUT`, `tessera review` driven by piped answers, and the two-colour diff of
 //! line art.
 
@@ -232,4 +233,63 @@ fn label_diffs_show_moved_boundaries_in_two_colours_over_the_faded_golden() {
         }
     }
     assert!(removed > 0 && added > 0, "removed {removed}, added {added}");
+}
+
+#[test]
+fn goldens_of_a_deleted_scene_are_reported_and_pruned_by_a_whole_bless_prune() {
+    let p = Project::new(&[
+        ("scenes/a.tess", &scene_with(&[("a.png", 0.25)])),
+        ("scenes/sub/b.tess", &scene_with(&[("b.png", 0.5), ("deep/c.png", 0.5)])),
+        ("scenes/sub/keep.tess", &scene_with(&[("k.png", 0.5)])),
+        ("tessera.toml", "[paths]\nscenes = \"scenes\"\n"),
+    ]);
+    p.tessera(&["-q", "bless"]).ok();
+    assert!(p.path("golden/sub/b/deep/c.png").exists());
+    // `a` renamed to `renamed`, `sub/b` deleted; `sub/keep` stays.
+    std::fs::rename(p.path("scenes/a.tess"), p.path("scenes/renamed.tess")).expect("rename");
+    std::fs::remove_file(p.path("scenes/sub/b.tess")).expect("delete");
+    p.tessera(&["-q", "bless", "scenes/renamed.tess"]).ok();
+    // Files tessera did not make: in the golden root, not golden-named, hidden, behind a link.
+    p.write("golden/notes.png", "mine");
+    p.write("golden/mine/readme.txt", "mine");
+    p.write("golden/.hidden/x.png", "mine");
+    p.write("outside/x.png", "mine");
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(p.path("outside"), p.path("golden/linked")).expect("link");
+
+    let run = p.tessera(&["check"]);
+    run.ok();
+    let err = run.stderr();
+    assert!(err.contains("warning: `golden/a/` holds 1 golden(s) of no scene"), "{err}");
+    assert!(err.contains("warning: `golden/sub/b/` holds 2 golden(s) of no scene"), "{err}");
+    assert_eq!(err.matches("warning:").count(), 2, "{err}");
+
+    // Pruning one scene leaves other scenes' leftovers, and says how to remove them.
+    let run = p.tessera(&["bless", "--prune", "scenes/renamed.tess"]);
+    run.ok();
+    assert!(p.path("golden/a/a.png").exists());
+    assert!(run.stderr().contains("(of every scene) removes them"), "{}", run.stderr());
+
+    let run = p.tessera(&["bless", "--prune"]);
+    run.ok();
+    for gone in ["golden/a/a.png", "golden/sub/b/b.png", "golden/sub/b/deep/c.png"] {
+        assert!(run.stdout().contains(&format!("pruned {gone}")), "{}", run.stdout());
+        assert!(!p.path(gone).exists(), "{gone}");
+    }
+    assert!(!p.path("golden/a").exists() && !p.path("golden/sub/b").exists(), "emptied directories go");
+    for kept in [
+        "golden/renamed/a.png",
+        "golden/sub/keep/k.png",
+        "golden/notes.png",
+        "golden/mine/readme.txt",
+        "golden/.hidden/x.png",
+        "outside/x.png",
+    ] {
+        assert!(p.path(kept).exists(), "{kept} was removed");
+    }
+    #[cfg(unix)]
+    assert!(p.path("golden/linked").symlink_metadata().is_ok(), "the link was removed");
+    let run = p.tessera(&["check"]);
+    run.ok();
+    assert!(!run.stderr().contains("warning"), "{}", run.stderr());
 }

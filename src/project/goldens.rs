@@ -1,5 +1,6 @@
 //! The golden files of a scene beyond `check`: blessing some outputs only, finding goldens
-//! whose output the scene no longer declares, and removing those (`bless --prune`).
+//! whose output the scene no longer declares or whose scene is gone, and removing those
+//! (`bless --prune`).
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -66,6 +67,48 @@ impl Project {
         Ok(removed)
     }
 
+    /// Golden directories of scenes that no longer exist, each with the golden files below
+    /// it: directories of the golden root that are no scene's (`scenes` holds every scene's
+    /// name) nor on the way to one (`golden/sub/` leads to the scene `sub/s`). Files directly
+    /// in the golden root are nobody's golden and never listed; links are never followed.
+    pub fn orphan_goldens(&self, scenes: &[String]) -> Vec<(PathBuf, Vec<PathBuf>)> {
+        let root = self.golden_root();
+        let mut found = Vec::new();
+        orphans_below(&root, Path::new(""), scenes, &mut found);
+        found.sort();
+        found
+            .into_iter()
+            .filter_map(|(dir, rels)| {
+                let dir = files::contained(&root, &dir.to_string_lossy()).ok()?;
+                let rels = rels.iter().filter_map(|r| files::contained(&root, &r.to_string_lossy()).ok()).collect();
+                Some((dir, rels))
+            })
+            .collect()
+    }
+
+    /// Removes the golden files of [`Project::orphan_goldens`], each proven again to be a
+    /// regular file inside the golden root, then the directories they leave empty. Returns
+    /// the files removed.
+    pub fn prune_orphans(&self, orphans: &[(PathBuf, Vec<PathBuf>)]) -> Result<Vec<PathBuf>, Failed> {
+        let root = self.golden_root();
+        let mut removed = Vec::new();
+        for (_, paths) in orphans {
+            for path in paths {
+                let Ok(rel) = path.strip_prefix(&root) else { continue };
+                let proven = files::contained(&root, &rel.to_string_lossy()).is_ok()
+                    && std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_file());
+                if !proven {
+                    continue;
+                }
+                std::fs::remove_file(path)
+                    .map_err(|e| plain_error(format!("cannot remove the orphan golden `{}`: {e}", path.display())))?;
+                remove_empty_parents(path, &root);
+                removed.push(path.clone());
+            }
+        }
+        Ok(removed)
+    }
+
     /// Removes the diff image of a pruned golden (`rel` below the golden root, so it starts
     /// with the scene's name), if a failed check left one.
     fn remove_diff(&self, scene: &str, rel: &Path) {
@@ -118,6 +161,34 @@ fn walk_goldens(dir: &Path, rel: &Path, scene: &str, scenes: &[String], out: &mu
             }
         } else if kind.is_file() && is_golden_name(name) && files::normal_relative(&rel.to_string_lossy()).is_ok() {
             out.push(rel);
+        }
+    }
+}
+
+/// Below `root/rel`: each directory that is no scene's and leads to none, with the golden
+/// files under it (relative to `root`); directories that lead to a scene are searched on.
+fn orphans_below(root: &Path, rel: &Path, scenes: &[String], out: &mut Vec<(PathBuf, Vec<PathBuf>)>) {
+    let Ok(entries) = std::fs::read_dir(root.join(rel)) else { return };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(name) = name.to_str() else { continue };
+        if name.starts_with('.') || !entry.file_type().is_ok_and(|k| k.is_dir()) {
+            continue;
+        }
+        let dir = rel.join(name);
+        let scene = dir.to_string_lossy().replace('\\', "/");
+        if scenes.contains(&scene) {
+            continue;
+        }
+        if scenes.iter().any(|s| s.starts_with(&format!("{scene}/"))) {
+            orphans_below(root, &dir, scenes, out);
+            continue;
+        }
+        let mut found = Vec::new();
+        walk_goldens(root, &dir, &scene, &[], &mut found);
+        if !found.is_empty() {
+            found.sort();
+            out.push((dir, found));
         }
     }
 }

@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use super::messages;
 use super::print::{self, print_failed};
 use super::{Global, Outcome, Reported};
 use crate::lang::{self, Diagnostics};
@@ -25,13 +26,19 @@ pub fn fmt(g: &Global, paths: &[PathBuf], check: bool) -> Outcome {
         match lang::fmt::format_source(&text) {
             Ok(formatted) if formatted == text => {}
             Ok(_) if check => {
-                println!("not formatted: {}", file.display());
+                if messages::json() {
+                    messages::emit(serde_json::json!({ "type": "unformatted", "path": file.display().to_string() }));
+                } else {
+                    println!("not formatted: {}", file.display());
+                }
                 bad = true;
             }
             Ok(formatted) => {
                 if let Err(e) = crate::project::format::rewrite_scene(&file, &formatted) {
                     eprintln!("error: {e}");
                     bad = true;
+                } else if messages::json() {
+                    messages::emit(serde_json::json!({ "type": "formatted", "path": file.display().to_string() }));
                 } else if !g.quiet {
                     println!("formatted {}", file.display());
                 }

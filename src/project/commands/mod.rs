@@ -85,6 +85,13 @@ pub fn gc(g: &Global, all: bool) -> Outcome {
     let p = g.open()?;
     let scenes = if all { Vec::new() } else { p.scene_files(&[]).map_err(|f| print_failed(&f))? };
     let r = p.gc(&scenes, all).map_err(|f| print_failed(&f))?;
+    if messages::json() {
+        messages::emit(serde_json::json!({
+            "type": "gc", "kept": r.kept, "removed": r.removed, "freed_bytes": r.freed_bytes,
+            "foreign": r.foreign.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        }));
+        return Ok(());
+    }
     if !g.quiet {
         println!("gc: kept {} entries, removed {} ({:.1} KiB freed)", r.kept, r.removed, r.freed_bytes as f64 / 1024.0);
     }

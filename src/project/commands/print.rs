@@ -127,16 +127,22 @@ pub(super) fn summary(command: &str, t: &Tally, checks: Option<&[CheckRow]>, fai
     messages::emit(v);
 }
 
-pub(super) fn check_table(rows: &[CheckRow]) {
+/// The check results as a table; with `-q`, only the rows that did not pass (and nothing
+/// at all when every output passed).
+pub(super) fn check_table(rows: &[CheckRow], quiet: bool) {
     if messages::json() {
         rows.iter().for_each(messages::check);
+        return;
+    }
+    let shown: Vec<&CheckRow> = rows.iter().filter(|r| !quiet || r.status != CheckStatus::Pass).collect();
+    if shown.is_empty() {
         return;
     }
     println!(
         "\n{:<6} {:<20} {:<28} {:>10} {:>10} {:>14}",
         "status", "scene", "output", "max diff", "tolerance", "failing px"
     );
-    for r in rows {
+    for r in shown {
         let status = match r.status {
             CheckStatus::Pass => "ok",
             CheckStatus::Fail => "FAIL",

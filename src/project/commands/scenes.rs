@@ -129,6 +129,7 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
     let mut rows = Vec::new();
     let mut reports = Vec::new();
     let mut builts = Vec::new();
+    let mut built_names = Vec::new();
     let mut claims = project::Claims::default();
     let mut tally = print::Tally { scenes: scenes.len(), ..Default::default() };
     let bar = ScenesBar::new(scenes.len(), p.progress);
@@ -141,6 +142,7 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
             failed = true;
             continue;
         };
+        built_names.push(built.name.clone());
         reports.push(serde_json::json!({
             "scene": scene.display().to_string(),
             "millis": built.millis,
@@ -157,6 +159,9 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
         }
     }
     drop(bar);
+    if mode != Mode::Build {
+        failed |= orphans(g, p, &names, &built_names, mode, paths.is_empty()).is_err();
+    }
     if let Some(path) = &g.report {
         if write_report(path, serde_json::json!({ "scenes": reports })).is_err() {
             failed = true;
@@ -164,7 +169,7 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
     }
     match mode {
         Mode::Check => {
-            print::check_table(&rows);
+            print::check_table(&rows, g.quiet);
             failed |= rows.iter().any(|r| r.status != CheckStatus::Pass);
         }
         Mode::Review => failed |= review::walk(g, p, &builts, &rows).is_err(),
@@ -178,6 +183,36 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
     } else {
         Ok(())
     }
+}
+
+/// Goldens of scenes that no longer exist: reported by `check` and `bless`, removed by
+/// `bless --prune` of the whole repository (`whole`). A scene built in this run names its
+/// directory too, wherever its file lies.
+fn orphans(g: &Global, p: &Project, names: &[String], built: &[String], mode: Mode, whole: bool) -> Outcome {
+    let scenes: Vec<String> = names.iter().chain(built).cloned().collect();
+    let orphans = p.orphan_goldens(&scenes);
+    if mode == (Mode::Bless { prune: true }) && whole {
+        let removed = p.prune_orphans(&orphans).map_err(|f| print_failed(&f))?;
+        if !g.quiet && !messages::json() {
+            for path in removed {
+                println!("  pruned {}", print::shown(&path).display());
+            }
+        }
+        return Ok(());
+    }
+    let how = if whole {
+        "`tessera bless --prune` removes them"
+    } else {
+        "`tessera bless --prune` (of every scene) removes them"
+    };
+    for (dir, files) in orphans {
+        eprintln!(
+            "warning: `{}/` holds {} golden(s) of no scene (its scene file is gone or renamed); {how}",
+            print::shown(&dir).display(),
+            files.len()
+        );
+    }
+    Ok(())
 }
 
 /// Which of `scenes` declare each `--set` param: a set no scene takes is an error (a typo
