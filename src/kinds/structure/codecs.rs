@@ -112,11 +112,29 @@ impl Encoded for Relaxed {
     }
 }
 
+/// The sample region a generated region was matched with (the closest shape, [references:
+/// frasson §3.6]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Associated {
+    /// Index of the region in the analysed sample (`SampleStructure::polygons`).
+    pub region: usize,
+    /// Rotation (radians, about the centroid) that turns the original onto the region; 0
+    /// when `allow_rotation = false`.
+    pub rotation: f64,
+    /// Turning-function distance of the match.
+    pub distance: f64,
+    /// `area(original) / area(region)`.
+    pub area_ratio: f64,
+}
+
 /// The final mesh of stage 2 and, per region, the original shape it was matched with.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Shaped {
     pub mesh: Mesh,
     pub placed: Vec<Option<Vec<Point>>>,
+    /// Per region of `mesh`: the sample region it was matched with and how it was turned
+    /// (appearance synthesis picks the region's texture by it).
+    pub associated: Vec<Option<Associated>>,
     /// Mean shape error per iteration.
     pub errors: Vec<f64>,
 }

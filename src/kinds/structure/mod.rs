@@ -38,7 +38,7 @@ use crate::synth::Progress;
 mod codecs;
 mod spec;
 mod views;
-pub use codecs::{Generators, Relaxed, Shaped};
+pub use codecs::{Associated, Generators, Relaxed, Shaped};
 pub use spec::SPEC;
 pub use views::plan_output;
 
@@ -236,7 +236,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
     };
     let mut inputs = Inputs::new();
     let shaping = Shaping { mesh: inputs.add(s3), analysis: inputs.add(a1), scale: props.num("scale"), params, w, h };
-    let s4 = FnStage::keyed("structure.shapes", 2, shaping, optimise_shapes);
+    let s4 = FnStage::keyed("structure.shapes", 3, shaping, optimise_shapes);
     let s4 = p.add(format!("structure {} (shapes)", d.name), s4, inputs, vec![]);
 
     p.set_part(d, "lloyd", s2);
@@ -319,15 +319,36 @@ fn optimise_shapes(cx: &RunCx, s: &Shaping) -> Result<Shaped, StageError> {
     let m = cx.get(s.mesh);
     let sample = cx.get(s.analysis);
     let sparams = &s.params;
-    if sparams.max_iters == 0 {
-        return Ok(Shaped { mesh: m.mesh.clone(), placed: vec![None; m.mesh.regions.len()], errors: vec![] });
-    }
     // Originals at the structure's scale: the ±20 % area rule compares like with like.
+    let regions = sample.original_regions();
     let originals: Vec<Vec<Point>> = sample
         .originals()
         .into_iter()
         .map(|(poly, _)| poly.iter().map(|p| [p[0] * s.scale, p[1] * s.scale]).collect())
         .collect();
+    let associated = |all: &[Option<optimize::Association>]| -> Vec<Option<Associated>> {
+        all.iter()
+            .map(|a| {
+                a.as_ref().map(|a| Associated {
+                    region: regions[a.original],
+                    rotation: a.rotation,
+                    distance: a.distance,
+                    area_ratio: a.area_ratio,
+                })
+            })
+            .collect()
+    };
+    if sparams.max_iters == 0 {
+        // Stage 2 is off: the mesh stays as it is, but its regions still learn their
+        // closest originals (appearance needs them).
+        let found = optimize::associate_mesh(&m.mesh, &m.on_occupancy_border, &m.on_domain_border, &originals, sparams);
+        return Ok(Shaped {
+            mesh: m.mesh.clone(),
+            placed: vec![None; m.mesh.regions.len()],
+            associated: associated(&found),
+            errors: vec![],
+        });
+    }
     let r = optimize::optimize_shapes(
         &m.mesh,
         &m.on_occupancy_border,
@@ -346,6 +367,7 @@ fn optimise_shapes(cx: &RunCx, s: &Shaping) -> Result<Shaped, StageError> {
     }
     Ok(Shaped {
         placed: r.associations.iter().map(|a| a.as_ref().map(|a| a.placed.clone())).collect(),
+        associated: associated(&r.associations),
         mesh: r.mesh,
         errors: r.errors,
     })

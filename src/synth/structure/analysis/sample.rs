@@ -30,12 +30,17 @@ impl SampleStructure {
     /// Interior regions (not on the border) with their ellipses: the originals that
     /// synthesis samples from and shape optimisation matches against.
     pub fn originals(&self) -> Vec<(Vec<Point>, Ellipse)> {
-        self.polygons
-            .iter()
-            .zip(&self.ellipses)
-            .zip(&self.border)
-            .filter(|(_, b)| !(self.model.config.exclude_border_regions && **b))
-            .filter_map(|((p, e), _)| e.map(|e| (p.clone(), e)))
+        self.original_regions()
+            .into_iter()
+            .map(|r| (self.polygons[r].clone(), self.ellipses[r].expect("kept")))
+            .collect()
+    }
+
+    /// The sample region index of each of [`SampleStructure::originals`], in the same order.
+    pub fn original_regions(&self) -> Vec<usize> {
+        (0..self.polygons.len())
+            .filter(|&r| !(self.model.config.exclude_border_regions && self.border[r]))
+            .filter(|&r| self.ellipses[r].is_some())
             .collect()
     }
 }

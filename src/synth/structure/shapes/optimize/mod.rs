@@ -91,6 +91,7 @@ mod params;
 mod state;
 mod targets;
 
+pub use crate::synth::structure::shapes::associate::Association;
 use distribution::*;
 use merge::*;
 use moves::*;
@@ -116,6 +117,28 @@ pub fn optimize_shapes(
     optimize_shapes_observed(mesh, fixed, border, domain, originals, params, |_, _, _| {})
 }
 
+/// The closest original of every region of `mesh` without moving anything (what
+/// [`optimize_shapes`] reports for its final mesh, for a structure whose stage 2 is off).
+/// Regions touching a `fixed` or `border` vertex are left out unless
+/// `params.include_border_regions`, as in the optimisation.
+pub fn associate_mesh(
+    mesh: &Mesh,
+    fixed: &[bool],
+    border: &[bool],
+    originals: &[Vec<Point>],
+    params: &ShapeParams,
+) -> Vec<Option<Association>> {
+    let eligible = eligible_regions(mesh, fixed, border, params);
+    associate_regions(&mesh.vertices, &mesh.regions, &eligible, originals, params).associations
+}
+
+fn eligible_regions(mesh: &Mesh, fixed: &[bool], border: &[bool], params: &ShapeParams) -> Vec<bool> {
+    mesh.regions
+        .iter()
+        .map(|c| c.len() >= 3 && (params.include_border_regions || c.iter().all(|&v| !fixed[v] && !border[v])))
+        .collect()
+}
+
 /// [`optimize_shapes`], calling `observe(k, vertices, regions)` with the mesh of the input
 /// (`k = 0`) and after every iteration `k` (vertex indices are those of the input; merged
 /// vertices no longer appear in the cycles). The final merge happens after the last call.
@@ -131,11 +154,7 @@ pub fn optimize_shapes_observed(
     let nv = mesh.vertices.len();
     assert_eq!(fixed.len(), nv, "one `fixed` flag per vertex");
     assert_eq!(border.len(), nv, "one `border` flag per vertex");
-    let eligible: Vec<bool> = mesh
-        .regions
-        .iter()
-        .map(|c| c.len() >= 3 && (params.include_border_regions || c.iter().all(|&v| !fixed[v] && !border[v])))
-        .collect();
+    let eligible = eligible_regions(mesh, fixed, border, params);
     let mut st = State::new(mesh, fixed, border, [domain.0, domain.1], params);
     let range = if params.distribution_check { edge_length_range(originals, params.edge_percentiles) } else { None };
 

@@ -361,3 +361,28 @@ fn straight_valency_2_vertices_are_removed() {
     let fixed = [false, false, false, false, false, false, true];
     assert!(!drop_straight(&mut st, &fixed, 5f64.to_radians())[6]);
 }
+
+/// A mesh associated with its own interior polygons: each eligible region finds itself
+/// (distance 0, area ratio 1), border regions none, and nothing moves.
+#[test]
+fn associate_mesh_finds_each_region_itself_without_moving_it() {
+    let s = standins::wall_random(&standins::WallRandomParams::default(), 3);
+    let (mesh, border) = stage1(&s);
+    let fixed = vec![false; mesh.vertices.len()];
+    let own: Vec<usize> = (0..mesh.regions.len()).filter(|&r| mesh.regions[r].iter().all(|&v| !border[v])).collect();
+    let originals: Vec<Vec<Point>> =
+        own.iter().map(|&r| mesh.regions[r].iter().map(|&v| mesh.vertices[v]).collect()).collect();
+    let found = associate_mesh(&mesh, &fixed, &border, &originals, &ShapeParams::default());
+    assert_eq!(found.len(), mesh.regions.len());
+    for (r, a) in found.iter().enumerate() {
+        match own.iter().position(|&o| o == r) {
+            Some(k) => {
+                let a = a.as_ref().unwrap_or_else(|| panic!("interior region {r} not associated"));
+                assert!(a.distance < 1e-9 && (a.area_ratio - 1.0).abs() < 1e-9, "region {r}: {a:?}");
+                // Identical shapes may exist; then the match is one of them, placed exactly.
+                assert!(a.original == k || originals[a.original].len() == originals[k].len(), "region {r}");
+            }
+            None => assert!(a.is_none(), "border region {r} associated"),
+        }
+    }
+}
