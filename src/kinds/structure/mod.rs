@@ -180,19 +180,20 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
             spec::Either::Second => EllipseFit::Pixels,
         },
     };
-    let analyse = FnStage::keyed("structure.analyse", 2, config, analyse);
+    let analyse = FnStage::keyed("structure.analyse", 3, config, analyse);
     let a1 = p.add(format!("structure {} (analysis)", d.name), analyse, Inputs::new(), vec![(path, path_span)]);
     let surface = p.result::<Plane>(on);
 
-    // S1: generators. The density map steers sampling only when centres follow it (S1
-    // reads the occupancy, size and, for `centers = density`, density maps).
+    // S1: generators. The density map steers uniform sampling too ([references: frasson
+    // §3.5.3, digest V8]): S1 reads the occupancy, size and, for `centers = uniform`, density
+    // maps.
     let mut inputs = Inputs::new();
     let (analysis, surface_in) = (inputs.add(a1), inputs.add(surface));
     let s1_maps: &[MapProp] =
-        if centers(props) == spec::Centers::Density { &[MapProp::Size, MapProp::Density] } else { &[MapProp::Size] };
+        if centers(props) == spec::Centers::Uniform { &[MapProp::Size, MapProp::Density] } else { &[MapProp::Size] };
     let maps = MapInputs::add(p, props, &mut inputs, s1_maps);
     let sampling = Sampling { analysis, surface: surface_in, maps, w, h, seed, options: SampleOptions::from(props) };
-    let s1 = FnStage::keyed("structure.sample", 3, sampling, sample_generators);
+    let s1 = FnStage::keyed("structure.sample", 4, sampling, sample_generators);
     let s1 = p.add(format!("structure {} (sampling)", d.name), s1, inputs, vec![]);
 
     // S2: Lloyd; with edits, S1e applies them to the relaxed generators and Lloyd runs
@@ -527,12 +528,14 @@ fn sample_generators(cx: &RunCx, s: &Sampling) -> Result<Generators, StageError>
     let mut centre_hist = model.ellipse_center.histogram.clone();
     let mut centre_fn = move |r: &mut Rng| centre_hist.as_mut().map(|hh| hh.sample(r)).unwrap_or([0.0, 0.0]);
     let centers = match o.centers {
-        spec::Centers::Density => CenterSource::Density,
-        // Too few regions for a centre histogram: uniform placement.
+        // Uniform over allowed pixels, in proportion to the density weight when S1 was given
+        // the density map (uniform without one).
+        spec::Centers::Uniform => CenterSource::Density,
         spec::Centers::Histogram if model.ellipse_center.histogram.is_some() => {
             CenterSource::Histogram { sampler: &mut centre_fn, bbox: [[0.0, 0.0], sample.size] }
         }
-        spec::Centers::Histogram | spec::Centers::Uniform => CenterSource::Uniform,
+        // Too few regions for a centre histogram: uniform placement.
+        spec::Centers::Histogram => CenterSource::Uniform,
     };
     let synthesized = match (o.joint, axes_hist, angle_hist) {
         (false, Some(axes), Some(angle)) => {

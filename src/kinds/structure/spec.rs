@@ -16,7 +16,6 @@ pub enum Mode {
 #[serde(rename_all = "lowercase")]
 pub enum Centers {
     Uniform,
-    Density,
     Histogram,
 }
 
@@ -43,7 +42,7 @@ pub enum MetricChoice {
 }
 
 crate::choices!(pub MODES: Mode { "statistical" => Mode::Statistical, "trivial" => Mode::Trivial });
-crate::choices!(pub CENTERS: Centers { "uniform" => Centers::Uniform, "density" => Centers::Density, "histogram" => Centers::Histogram });
+crate::choices!(pub CENTERS: Centers { "uniform" => Centers::Uniform, "histogram" => Centers::Histogram });
 crate::choices!(
     /// `independent`: axes and angle drawn apart; `joint`: (axes, angle) triples together.
     pub SHAPE_SAMPLING: Either { "independent" => Either::First, "joint" => Either::Second }
@@ -188,7 +187,7 @@ pub static SPEC: KindSpec = KindSpec {
             "centers",
             Ty::Enum(CENTERS.names),
             Default::Text("uniform"),
-            "Where initial generators go: uniform over allowed pixels, weighted by the density map, or from the sample's centre histogram.",
+            "Where initial generators go: `uniform` over the allowed pixels, drawn in proportion to the `density` map's weight when there is one (so the map places regions from the start, not only through Lloyd); `histogram`: from the sample's centre histogram, its box mapped onto the target.",
         ),
         p(
             "shape_sampling",

@@ -114,7 +114,10 @@ impl Axis {
         s.sort_by(f64::total_cmp);
         let n = s.len();
         let (dmin, dmax) = (s[0], s[n - 1]);
-        let iqr = percentile(&s, 0.75) - percentile(&s, 0.25);
+        let iqr = match kind {
+            VarKind::Angle => axial_iqr(&s),
+            _ => percentile(&s, 0.75) - percentile(&s, 0.25),
+        };
         let fd = 2.0 * iqr * (n as f64).powf(-1.0 / 3.0);
         let degenerate = iqr.is_nan() || iqr <= 0.0 || n < 4;
         let (lo, hi) = match kind {
@@ -185,6 +188,17 @@ impl Axis {
             }
         }
     }
+}
+
+/// The interquartile range of axial angles (period π), measured around their axial mean so
+/// that a tight cluster across the cut (stones tilted either way of horizontal: θ near 0 and
+/// near π) has a small spread, not one of nearly π.
+fn axial_iqr(angles: &[f64]) -> f64 {
+    let (sx, sy) = angles.iter().fold((0.0, 0.0), |(x, y), t| (x + (2.0 * t).cos(), y + (2.0 * t).sin()));
+    let mean = 0.5 * sy.atan2(sx);
+    let mut centred: Vec<f64> = angles.iter().map(|t| (t - mean + PI / 2.0).rem_euclid(PI) - PI / 2.0).collect();
+    centred.sort_by(f64::total_cmp);
+    percentile(&centred, 0.75) - percentile(&centred, 0.25)
 }
 
 /// A 1-D histogram.

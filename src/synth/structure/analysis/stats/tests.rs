@@ -143,3 +143,24 @@ fn interior_angles_of_an_l() {
     assert_eq!(deg, vec![90.0, 90.0, 90.0, 270.0, 90.0, 90.0]);
     assert!((a.iter().sum::<f64>() - 4.0 * PI).abs() < 1e-12);
 }
+
+/// Near-horizontal axial angles fall on both sides of the cut (θ near 0 and near π): their
+/// bins are as narrow as the same spread around π/2 gets, and samples stay near horizontal.
+#[test]
+fn angle_bins_follow_the_axial_spread_across_the_cut() {
+    let mut rng = crate::synth::rng::Rng::new(4);
+    let tilts: Vec<f64> = (0..40).map(|_| rng.range(-0.15, 0.15)).collect();
+    let across: Vec<f64> = tilts.iter().map(|t| t.rem_euclid(PI)).collect();
+    let upright: Vec<f64> = tilts.iter().map(|t| PI / 2.0 + t).collect();
+    let a = Axis::fit(&across, VarKind::Angle, 64);
+    let b = Axis::fit(&upright, VarKind::Angle, 64);
+    assert!((a.width - b.width).abs() < 1e-12, "across the cut {} vs upright {}", a.width, b.width);
+    assert!(a.width < 0.2, "bin width {}", a.width);
+    let h = Histogram1::build(&across, VarKind::Angle).expect("histogram");
+    let mut r = crate::synth::rng::Rng::new(5);
+    for _ in 0..500 {
+        let t = h.sample(&mut r);
+        let off = (t + PI / 2.0).rem_euclid(PI) - PI / 2.0;
+        assert!(off.abs() <= 0.15 + a.width, "sampled {t} is {off} rad off horizontal");
+    }
+}
