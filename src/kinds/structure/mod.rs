@@ -184,9 +184,10 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
     let a1 = p.add(format!("structure {} (analysis)", d.name), analyse, Inputs::new(), vec![(path, path_span)]);
     let surface = p.result::<Plane>(on);
 
-    // S1: generators. The density map steers uniform sampling too ([references: frasson
-    // §3.5.3, digest V8]): S1 reads the occupancy, size and, for `centers = uniform`, density
-    // maps.
+    // S1: generators. Uniform centres are drawn in proportion to the density map too, so
+    // the map places regions from the start and not only through Lloyd
+    // [references: frasson §3.5.3]: S1 reads the occupancy, size and, for `centers =
+    // uniform`, density maps.
     let mut inputs = Inputs::new();
     let (analysis, surface_in) = (inputs.add(a1), inputs.add(surface));
     let s1_maps: &[MapProp] =
