@@ -31,7 +31,7 @@ output "ellipses.png" {
 "#;
 
 #[test]
-fn a_density_map_change_reruns_lloyd_and_after_but_not_the_analysis() {
+fn a_density_map_change_reruns_sampling_lloyd_and_after_but_not_the_analysis() {
     let p = project(SCENE);
     p.build_report(&["scene.tess"]).0.ok();
     p.write("scene.tess", &SCENE.replace("to = [192, 0]", "to = [96, 0]"));
@@ -45,6 +45,7 @@ fn a_density_map_change_reruns_lloyd_and_after_but_not_the_analysis() {
             "output labels.png",
             "structure st (lloyd)",
             "structure st (polygonize)",
+            "structure st (sampling)",
             "structure st (shapes)"
         ],
         "{stages:?}"
