@@ -52,17 +52,10 @@ impl Project {
         let scene_dir = self.golden_dir(&built.name);
         let mut removed = Vec::new();
         for path in stale {
-            let Ok(rel) = path.strip_prefix(self.golden_root()) else { continue };
-            let proven = files::contained(&self.golden_root(), &rel.to_string_lossy()).is_ok()
-                && std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_file());
-            if !proven {
-                continue;
+            if let Some(rel) = self.remove_golden(path, &scene_dir, "stale")? {
+                self.remove_diff(&built.name, rel);
+                removed.push(path.clone());
             }
-            std::fs::remove_file(path)
-                .map_err(|e| plain_error(format!("cannot remove the stale golden `{}`: {e}", path.display())))?;
-            remove_empty_parents(path, &scene_dir);
-            self.remove_diff(&built.name, rel);
-            removed.push(path.clone());
         }
         Ok(removed)
     }
@@ -92,21 +85,29 @@ impl Project {
     pub fn prune_orphans(&self, orphans: &[(PathBuf, Vec<PathBuf>)]) -> Result<Vec<PathBuf>, Failed> {
         let root = self.golden_root();
         let mut removed = Vec::new();
-        for (_, paths) in orphans {
-            for path in paths {
-                let Ok(rel) = path.strip_prefix(&root) else { continue };
-                let proven = files::contained(&root, &rel.to_string_lossy()).is_ok()
-                    && std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_file());
-                if !proven {
-                    continue;
-                }
-                std::fs::remove_file(path)
-                    .map_err(|e| plain_error(format!("cannot remove the orphan golden `{}`: {e}", path.display())))?;
-                remove_empty_parents(path, &root);
+        for path in orphans.iter().flat_map(|(_, paths)| paths) {
+            if self.remove_golden(path, &root, "orphan")?.is_some() {
                 removed.push(path.clone());
             }
         }
         Ok(removed)
+    }
+
+    /// Removes `path` once it is proven again to be a regular file (never a link) inside the
+    /// golden root, then the directories it leaves empty below `top`. Returns its path below
+    /// the root when it was removed; `what` names it in the error.
+    fn remove_golden<'p>(&self, path: &'p Path, top: &Path, what: &str) -> Result<Option<&'p Path>, Failed> {
+        let root = self.golden_root();
+        let Ok(rel) = path.strip_prefix(&root) else { return Ok(None) };
+        let proven = files::contained(&root, &rel.to_string_lossy()).is_ok()
+            && std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_file());
+        if !proven {
+            return Ok(None);
+        }
+        std::fs::remove_file(path)
+            .map_err(|e| plain_error(format!("cannot remove the {what} golden `{}`: {e}", path.display())))?;
+        remove_empty_parents(path, top);
+        Ok(Some(rel))
     }
 
     /// Removes the diff image of a pruned golden (`rel` below the golden root, so it starts

@@ -323,10 +323,9 @@ fn optimise_shapes(cx: &RunCx, s: &Shaping) -> Result<Shaped, StageError> {
     let sparams = &s.params;
     // Originals at the structure's scale: the ±20 % area rule compares like with like.
     let regions = sample.original_regions();
-    let originals: Vec<Vec<Point>> = sample
-        .originals()
-        .into_iter()
-        .map(|(poly, _)| poly.iter().map(|p| [p[0] * s.scale, p[1] * s.scale]).collect())
+    let originals: Vec<Vec<Point>> = regions
+        .iter()
+        .map(|&r| sample.polygons[r].iter().map(|p| [p[0] * s.scale, p[1] * s.scale]).collect())
         .collect();
     let associated = |all: &[Option<optimize::Association>]| -> Vec<Option<Associated>> {
         all.iter()

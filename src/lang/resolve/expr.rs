@@ -337,15 +337,20 @@ impl Checker<'_> {
             (Dim::Free, d) => Some((lift(a, d), b)),
             (d, Dim::Free) => Some((a, lift(b, d))),
             (x, y) => {
-                self.errors.push(
-                    Diagnostic::error(format!("`{what}` of {} and {}", x.noun(), y.noun()))
-                        .with_code("tessera::unit")
-                        .with_label(a_at, x.noun())
-                        .with_label(b_at, y.noun()),
-                );
+                self.dims_mismatch(format!("`{what}` of {} and {}", x.noun(), y.noun()), (x, a_at), (y, b_at), None);
                 None
             }
         }
+    }
+
+    /// Two operands whose dimensions do not combine: each labelled with its own.
+    fn dims_mismatch(&mut self, message: String, (x, a_at): (Dim, Span), (y, b_at): (Dim, Span), help: Option<&str>) {
+        let mut d =
+            Diagnostic::error(message).with_code("tessera::unit").with_label(a_at, x.noun()).with_label(b_at, y.noun());
+        if let Some(h) = help {
+            d = d.with_help(h);
+        }
+        self.errors.push(d);
     }
 
     fn apply(&mut self, op: Op, a: Q, b: Q, a_at: Span, b_at: Span) -> Option<Q> {
@@ -357,12 +362,12 @@ impl Checker<'_> {
             Op::Mul => match (a.dim, b.dim) {
                 (Dim::Free, dim) | (dim, Dim::Free) => Some(Q { v: a.v * b.v, dim }),
                 (x, y) => {
-                    self.errors.push(
-                        Diagnostic::error(format!("{} times {} has no meaning here", x.noun(), y.noun()))
-                            .with_code("tessera::unit")
-                            .with_label(a_at, x.noun())
-                            .with_label(b_at, y.noun())
-                            .with_help("multiply a length or an angle by plain numbers only"),
+                    let help = "multiply a length or an angle by plain numbers only";
+                    self.dims_mismatch(
+                        format!("{} times {} has no meaning here", x.noun(), y.noun()),
+                        (x, a_at),
+                        (y, b_at),
+                        Some(help),
                     );
                     None
                 }
@@ -380,11 +385,11 @@ impl Checker<'_> {
                     (dim, Dim::Free) => dim,
                     (x, y) if x == y => Dim::Free,
                     (x, y) => {
-                        self.errors.push(
-                            Diagnostic::error(format!("{} divided by {} has no meaning here", x.noun(), y.noun()))
-                                .with_code("tessera::unit")
-                                .with_label(a_at, x.noun())
-                                .with_label(b_at, y.noun()),
+                        self.dims_mismatch(
+                            format!("{} divided by {} has no meaning here", x.noun(), y.noun()),
+                            (x, a_at),
+                            (y, b_at),
+                            None,
                         );
                         return None;
                     }
