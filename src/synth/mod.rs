@@ -1,4 +1,5 @@
 //! The algorithms: pure functions on plain data. No file I/O, no cache, no graph.
+pub mod appearance;
 pub mod blend;
 pub mod fft;
 pub mod library;
