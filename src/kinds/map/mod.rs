@@ -13,6 +13,9 @@ use crate::lang::schema::{
 use crate::lang::{Decl, Diagnostic, Val};
 use crate::raster::{self, Image};
 use crate::synth::map as m;
+use crate::synth::structure::regionmaps::{region_map, RegionField};
+
+use super::structure::codecs::Shaped;
 
 const fn arg(name: &'static str, ty: Ty, default: Default, doc: &'static str) -> PropSpec {
     PropSpec { name, ty, default, doc }
@@ -113,7 +116,26 @@ static SOURCES: &[CallSpec] = &[
             arg("t", Ty::Number(Unit::Fraction, UNIT), Default::Text("0.5"), "Weight of `b` for `mix`."),
         ],
     },
+    CallSpec {
+        name: "regions",
+        doc: "A map that follows the regions of a structure: the maps artists build with flood fills, as guides, masks or blend weights.",
+        args: &[
+            arg("of", Ty::Ref(&[Value::Structure]), Default::Required, "The structure whose regions the map follows."),
+            arg(
+                "field",
+                Ty::Enum(REGION_FIELDS.names),
+                Default::Text("random"),
+                "`id`: (i + 1)/n per region; `random`: a seeded value in [0, 1) per region; `u`, `v`: 0 to 1 along the region's major / minor axis; `edge`: distance to the region's edge, 1 at its deepest pixel; `edge_px`: the same in pixels; `axis`: orientation field of the major axis. 0 outside every region.",
+            ),
+            arg("seed", Ty::Int(0, 1 << 53), Default::Absent, "An explicit seed for `random` instead of the derived one."),
+        ],
+    },
 ];
+
+crate::choices!(REGION_FIELDS: RegionField {
+    "id" => RegionField::Id, "random" => RegionField::Random, "u" => RegionField::U, "v" => RegionField::V,
+    "edge" => RegionField::Edge, "edge_px" => RegionField::EdgePixels, "axis" => RegionField::Axis
+});
 
 /// `channel` of `image(...)`: which channel becomes the map.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -265,6 +287,10 @@ struct Source {
     h: usize,
     seed: u64,
     operands: Option<[In<Image>; 2]>,
+    /// `regions(...)`: the structure's final mesh and the size of its surface (absent from
+    /// the key of other sources, so their cache entries stay valid).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    regions: Option<(In<Shaped>, [f64; 2])>,
 }
 
 fn plan_source(p: &mut Planner, d: &Decl, call: &Call, w: usize, h: usize) -> Handle<Image> {
@@ -273,15 +299,23 @@ fn plan_source(p: &mut Planner, d: &Decl, call: &Call, w: usize, h: usize) -> Ha
     let mut files = Vec::new();
     let seed = match a.get("seed") {
         Some(Val::Int(s)) => *s as u64,
+        _ if call.name == "regions" => p.seed(d, "map.regions"),
         _ => p.seed(d, "map.noise"),
     };
     let mut operands = None;
+    let mut regions = None;
     match call.name.as_str() {
         "image" => files.push((a.path("path").expect("required").clone(), a.span("path").unwrap_or(d.name_span))),
         "combine" => operands = Some([inputs.add(p.result(a.str("a"))), inputs.add(p.result(a.str("b")))]),
+        "regions" => {
+            let structure = a.str("of");
+            let mesh = p.part(structure, "mesh").expect("structures plan a mesh stage");
+            let ((sw, sh), _) = p.plane(p.decl(structure).props.reference("on").expect("required"));
+            regions = Some((inputs.add(mesh), [sw as f64, sh as f64]));
+        }
         _ => {}
     }
-    let source = Source { call: call.clone(), w, h, seed, operands };
+    let source = Source { call: call.clone(), w, h, seed, operands, regions };
     let stage = FnStage::keyed("map.source", 2, source, |cx, s| {
         evaluate(s, cx).map_err(|e| match e.prop {
             // Parameter errors from the algorithms name a `from(...)` argument.
@@ -351,6 +385,11 @@ fn evaluate(s: &Source, cx: &RunCx) -> Result<Image, StageError> {
                 Op::Screen => m::CombineOp::Screen,
             };
             m::combine(&x, &y, op).map_err(map_err)
+        }
+        "regions" => {
+            let (mesh, domain) = s.regions.expect("`regions` reads a structure");
+            let field = REGION_FIELDS.get(a.enumeration("field"));
+            Ok(region_map(&cx.get(mesh).mesh, domain, w, h, field, seed))
         }
         other => unreachable!("constructor `{other}` is in the schema but not evaluated"),
     }

@@ -35,7 +35,7 @@ use crate::synth::structure::{Ellipse, Point};
 use crate::synth::surface::Plane;
 use crate::synth::Progress;
 
-mod codecs;
+pub(crate) mod codecs;
 mod spec;
 mod views;
 pub use codecs::{Associated, Generators, Relaxed, Shaped};

@@ -17,6 +17,7 @@ pub mod format;
 pub mod generation;
 pub mod mesh;
 pub mod relaxation;
+pub mod regionmaps;
 pub mod render;
 pub mod shapes;
 mod types;
