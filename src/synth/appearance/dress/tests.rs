@@ -1,0 +1,1 @@
+//! Tests of S5–S8 (see the checklist F23–F27).
