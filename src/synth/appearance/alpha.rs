@@ -175,10 +175,8 @@ pub fn auto_alpha_with_model(
         return (alpha, None);
     }
     // Seeds: 0 = stone (shrunk region masks), 1 = mortar (the drawn lines).
-    let mut class: Vec<u8> = strip
-        .iter()
-        .map(|&i| if labels.data[i] != NO_REGION && dist[i] >= shrink { 0 } else { 1 })
-        .collect();
+    let mut class: Vec<u8> =
+        strip.iter().map(|&i| if labels.data[i] != NO_REGION && dist[i] >= shrink { 0 } else { 1 }).collect();
     if !class.contains(&0) || !class.contains(&1) {
         return (alpha, None);
     }
@@ -212,7 +210,8 @@ pub fn auto_alpha_with_model(
             var[c][ch] += (lab[i][ch] - centres[c][ch]).powi(2);
         }
     }
-    let sigma: [Lab; 2] = std::array::from_fn(|c| std::array::from_fn(|ch| (var[c][ch] / count[c] as f64).sqrt().max(1.0)));
+    let sigma: [Lab; 2] =
+        std::array::from_fn(|c| std::array::from_fn(|ch| (var[c][ch] / count[c] as f64).sqrt().max(1.0)));
     let share = count[1] as f64 / strip.len() as f64;
     let log_norm: [f64; 2] = std::array::from_fn(|c| {
         let prior = if c == 1 { share } else { 1.0 - share };

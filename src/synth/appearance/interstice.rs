@@ -100,7 +100,9 @@ pub fn build_interstice_atlas(image: &Image, alpha: &Image, mesh: &Mesh, params:
         .collect();
     let mut atlas = Image::new(atlas_size[0], atlas_size[1], 4);
     let mut entries = Vec::with_capacity(edges.len());
-    for (e, ((px, length, lab), (&[sw, sh], &[x0, y0]))) in strips.into_iter().zip(sizes.iter().zip(&positions)).enumerate() {
+    for (e, ((px, length, lab), (&[sw, sh], &[x0, y0]))) in
+        strips.into_iter().zip(sizes.iter().zip(&positions)).enumerate()
+    {
         paste(&mut atlas, &px, sw, sh, x0, y0);
         entries.push(IntersticeEntry { edge: e, length, rect: [x0, y0, sw, sh], lab });
     }
@@ -118,7 +120,12 @@ pub fn strip_corners(p: Point, q: Point, half_width: f64, extension: f64) -> [Po
     let d = if l > 0.0 { [(q[0] - p[0]) / l, (q[1] - p[1]) / l] } else { [1.0, 0.0] };
     let n = [d[1], -d[0]];
     let at = |o: Point, s: f64, t: f64| [o[0] + s * d[0] + t * n[0], o[1] + s * d[1] + t * n[1]];
-    [at(p, -extension, half_width), at(q, extension, half_width), at(q, extension, -half_width), at(p, -extension, -half_width)]
+    [
+        at(p, -extension, half_width),
+        at(q, extension, half_width),
+        at(q, extension, -half_width),
+        at(p, -extension, -half_width),
+    ]
 }
 
 /// The entry (index into `atlas.entries`) whose original length is closest to `len`.
@@ -175,7 +182,8 @@ pub fn measure_half_width(alpha: &Image, mesh: &Mesh) -> Option<f64> {
             }
             let reach = |sign: f64| {
                 let mut s = 0.0;
-                while s < REACH && bilinear_alpha(alpha, c[0] + sign * (s + STEP) * n[0], c[1] + sign * (s + STEP) * n[1]) >= 0.5
+                while s < REACH
+                    && bilinear_alpha(alpha, c[0] + sign * (s + STEP) * n[0], c[1] + sign * (s + STEP) * n[1]) >= 0.5
                 {
                     s += STEP;
                 }
@@ -276,7 +284,9 @@ mod tests {
     use super::*;
     use crate::synth::appearance::alpha::{auto_alpha, AlphaParams};
     use crate::synth::rng::Rng;
-    use crate::synth::structure::fixtures::standins::{paint, wall_random, PaintParams, Painted, StandIn, WallRandomParams};
+    use crate::synth::structure::fixtures::standins::{
+        paint, wall_random, PaintParams, Painted, StandIn, WallRandomParams,
+    };
     use crate::synth::structure::NO_REGION;
 
     fn sample(seed: u64) -> (StandIn, Painted, Image) {
@@ -388,7 +398,10 @@ mod tests {
                 assert_eq!(atlas.image.get(x + i, y + j, 3), 1.0);
             }
         }
-        assert_eq!(strip_corners([10.0, 15.0], [30.0, 15.0], 3.0, 2.0), [[8.0, 12.0], [32.0, 12.0], [32.0, 18.0], [8.0, 18.0]]);
+        assert_eq!(
+            strip_corners([10.0, 15.0], [30.0, 15.0], 3.0, 2.0),
+            [[8.0, 12.0], [32.0, 12.0], [32.0, 18.0], [8.0, 18.0]]
+        );
     }
 
     /// F25 (strip pixels): among the sample pixels the strips cover, alpha is exactly 0 on

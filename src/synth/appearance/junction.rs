@@ -199,7 +199,8 @@ pub fn build_junction_atlas(image: &Image, alpha: &Image, mesh: &Mesh, params: &
                 y1 = y1.max(p[1]);
             }
             let origin = [x0.floor() as i64, y0.floor() as i64];
-            let size = [((x1.ceil() as i64 - origin[0]) as usize).max(1), ((y1.ceil() as i64 - origin[1]) as usize).max(1)];
+            let size =
+                [((x1.ceil() as i64 - origin[0]) as usize).max(1), ((y1.ceil() as i64 - origin[1]) as usize).max(1)];
             let [sw, sh] = size;
             let mut px = vec![0f32; 4 * sw * sh];
             let (mut mortar, mut all) = (Vec::new(), Vec::new());
@@ -271,9 +272,8 @@ pub fn variants_of(angles: &[f64]) -> Vec<(usize, bool, Vec<f64>)> {
     let mut out: Vec<(usize, bool, Vec<f64>)> = Vec::with_capacity(2 * v);
     for mirrored in [false, true] {
         for s in 0..v {
-            let t: Vec<f64> = (0..v)
-                .map(|j| if mirrored { angles[(s + 2 * v - j - 1) % v] } else { angles[(j + s) % v] })
-                .collect();
+            let t: Vec<f64> =
+                (0..v).map(|j| if mirrored { angles[(s + 2 * v - j - 1) % v] } else { angles[(j + s) % v] }).collect();
             let same = |u: &Vec<f64>| u.iter().zip(&t).all(|(a, b)| a.to_bits() == b.to_bits());
             if !out.iter().any(|(_, _, u)| same(u)) {
                 out.push((s, mirrored, t));
@@ -370,7 +370,13 @@ impl JunctionIndex {
             .min_by(|&a, &b| a.abs_diff(v).cmp(&b.abs_diff(v)).then(b.cmp(&a)))
             .filter(|_| v > 0);
         let Some(target) = target else {
-            return Search { hits: Vec::new(), valency: v, query: angles.to_vec(), adapted: Vec::new(), fallback: v > 0 };
+            return Search {
+                hits: Vec::new(),
+                valency: v,
+                query: angles.to_vec(),
+                adapted: Vec::new(),
+                fallback: v > 0,
+            };
         };
         let (query, adapted) = adapt_valency(angles, target);
         let mut best: Vec<Hit> = Vec::new();
@@ -457,7 +463,9 @@ mod tests {
     use super::*;
     use crate::synth::appearance::alpha::{auto_alpha, AlphaParams};
     use crate::synth::rng::Rng;
-    use crate::synth::structure::fixtures::standins::{paint, wall_random, PaintParams, Painted, StandIn, WallRandomParams};
+    use crate::synth::structure::fixtures::standins::{
+        paint, wall_random, PaintParams, Painted, StandIn, WallRandomParams,
+    };
     use crate::synth::structure::NO_REGION;
 
     fn sample(seed: u64) -> (StandIn, Painted, Image, JunctionAtlas) {
@@ -576,7 +584,13 @@ mod tests {
                 assert!(!found.fallback);
                 assert_eq!(h.entry, i);
                 assert!(h.distance < 1e-9, "{}", h.distance);
-                assert_eq!(h.mirrored, mirrored);
+                // Valency 2: a mirrored tuple is the swapped one, dropped as a duplicate, and
+                // the swap (a rotation) is an equally exact alignment of the branches.
+                if v >= 3 {
+                    assert_eq!(h.mirrored, mirrored);
+                } else if h.mirrored != mirrored {
+                    continue;
+                }
                 // The query's branch 0 shows the original branch `shift`, then on in order.
                 for (j, &(bi, _)) in dirs.iter().enumerate() {
                     let want = if mirrored { (h.shift + v - j) % v } else { (j + h.shift) % v };
@@ -634,11 +648,8 @@ mod tests {
             assert!(found.hits.windows(2).all(|w| w[0].distance <= w[1].distance));
             let mean = [rng.range(30.0, 90.0), rng.range(-20.0, 20.0), rng.range(-20.0, 30.0)];
             let pick = pick_by_colour(&found.hits, &atlas, mean);
-            let best = found
-                .hits
-                .iter()
-                .map(|h| delta_e(atlas.entries[h.entry].lab, mean))
-                .fold(f64::INFINITY, f64::min);
+            let best =
+                found.hits.iter().map(|h| delta_e(atlas.entries[h.entry].lab, mean)).fold(f64::INFINITY, f64::min);
             assert_eq!(delta_e(atlas.entries[pick.entry].lab, mean), best);
             let first = found.hits.iter().find(|h| delta_e(atlas.entries[h.entry].lab, mean) == best).unwrap();
             assert_eq!(&pick, first);
@@ -647,7 +658,8 @@ mod tests {
 
     #[test]
     fn missing_valencies_fall_back() {
-        let index = JunctionIndex::from_angles([deg(&[175.0, 85.0, 100.0]).as_slice(), deg(&[120.0, 120.0, 120.0]).as_slice()]);
+        let index =
+            JunctionIndex::from_angles([deg(&[175.0, 85.0, 100.0]).as_slice(), deg(&[120.0, 120.0, 120.0]).as_slice()]);
         let four = index.search(&deg(&[100.0, 80.0, 90.0, 90.0]), 5);
         assert!(four.fallback);
         assert_eq!(four.valency, 3);
@@ -715,7 +727,7 @@ mod tests {
                             continue;
                         }
                         covered[y * w + x] = true;
-                        let (ax, ay) = ((x as f64 - off[0]) as usize, (y as f64 - off[1]) as usize);
+                        let (ax, ay) = ((x as f64 - off[0]).round() as usize, (y as f64 - off[1]).round() as usize);
                         inside_atlas[ay * atlas.image.width + ax] = true;
                         assert_eq!(atlas.image.get(ax, ay, 0), painted.image.get(x, y, 0));
                         assert_eq!(atlas.image.get(ax, ay, 3), alpha.get(x, y, 0));
@@ -743,6 +755,42 @@ mod tests {
             assert!(rs >= 0.95, "stone rate {rs}");
             assert!(rm >= 0.90, "mortar rate {rm}");
         }
+    }
+
+    /// Timing of the contour analysis (alpha, interstice atlas, junction atlas, index) of a
+    /// 512² painted `wall_random`, best of 5, on the current rayon pool.
+    #[test]
+    #[ignore = "timing, run with --ignored --nocapture in release"]
+    fn timing_512() {
+        use crate::synth::appearance::interstice::{build_interstice_atlas, IntersticeParams};
+        let params = WallRandomParams { width: 512, height: 512, count: 140, ..WallRandomParams::default() };
+        let s = wall_random(&params, 21);
+        let painted = paint(&s, &PaintParams::default(), 21);
+        let polygons = s.polygons();
+        let mut best = [f64::INFINITY; 4];
+        for _ in 0..5 {
+            let t0 = std::time::Instant::now();
+            let alpha = auto_alpha(&painted.image, &polygons, &AlphaParams::default());
+            let t1 = std::time::Instant::now();
+            let strips = build_interstice_atlas(&painted.image, &alpha, &s.mesh, &IntersticeParams::default());
+            let t2 = std::time::Instant::now();
+            let stars = build_junction_atlas(&painted.image, &alpha, &s.mesh, &JunctionParams::default());
+            let index = JunctionIndex::new(&stars);
+            let t3 = std::time::Instant::now();
+            assert!(!strips.entries.is_empty() && !index.valencies().is_empty());
+            let times = [t1 - t0, t2 - t1, t3 - t2, t3 - t0].map(|d| d.as_secs_f64());
+            for (b, t) in best.iter_mut().zip(times) {
+                *b = b.min(t);
+            }
+        }
+        println!(
+            "512² contours on {} threads: alpha {:.1} ms, interstices {:.1} ms, junctions {:.1} ms, total {:.1} ms",
+            rayon::current_num_threads(),
+            best[0] * 1e3,
+            best[1] * 1e3,
+            best[2] * 1e3,
+            best[3] * 1e3
+        );
     }
 
     /// Same seed, same bytes; one and two threads give the same atlas.
