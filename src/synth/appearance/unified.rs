@@ -511,8 +511,8 @@ fn build_pallet(image: &Image, members: &[&Extract], block: usize, stride: usize
     let n = pw * ph;
     let fill = mean_of_members(image, members);
     let mut img = Image::new(pw, ph, 3);
-    for c in 0..3 {
-        img.data[c * n..(c + 1) * n].iter_mut().for_each(|v| *v = fill[c]);
+    for (c, &f) in fill.iter().enumerate() {
+        img.data[c * n..(c + 1) * n].iter_mut().for_each(|v| *v = f);
     }
     let mut allowed = Image::new(pw, ph, 1);
     let mut pixel = vec![u32::MAX; n];
@@ -551,8 +551,8 @@ fn mean_of_members(image: &Image, members: &[&Extract]) -> [f32; 3] {
             for x in 0..e.width {
                 if e.mask[y * e.width + x] {
                     let i = (e.origin[1] + y) * image.width + e.origin[0] + x;
-                    for c in 0..3 {
-                        s[c] += f64::from(image.data[c * ip + i]);
+                    for (c, sc) in s.iter_mut().enumerate() {
+                        *sc += f64::from(image.data[c * ip + i]);
                     }
                     n += 1;
                 }
@@ -685,8 +685,8 @@ mod tests {
                     let (dx, dy) = (x as f64 - cx as f64, y as f64 - cy as f64);
                     if (dx / 5.0).powi(2) + (dy / 3.5).powi(2) <= 1.0 {
                         let i = y * s.width + x;
-                        for c in 0..3 {
-                            painted.image.data[c * n + i] = leaf[c];
+                        for (c, &v) in leaf.iter().enumerate() {
+                            painted.image.data[c * n + i] = v;
                         }
                     }
                 }
