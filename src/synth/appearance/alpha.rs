@@ -1,5 +1,5 @@
 //! Stone versus mortar: the alpha of interstices and junctions, automatic or user-given
-//! (stage A2e/A2f input, digest §3.7 and V22). [references: frasson §4.2.4]
+//! (stage A2e/A2f input, V22). [references: frasson §4.2.4]
 //!
 //! The thesis cut the rock pixels out of its atlases by hand and only proposes cues for an
 //! automatic extraction (the colour histogram's two peaks, the gradient, a user patch). Our
@@ -35,7 +35,7 @@ use crate::raster::Image;
 use crate::synth::structure::analysis::labels_import::rasterize_polygons;
 use crate::synth::structure::NO_REGION;
 
-/// Parameters of the automatic alpha (digest §3.7, V17, V22).
+/// Parameters of the automatic alpha (V17, V22).
 #[derive(Clone, Debug, PartialEq)]
 pub struct AlphaParams {
     /// Region masks are shrunk by this many px to seed the stone class (V17: 2 px).
@@ -206,8 +206,8 @@ pub fn auto_alpha_with_model(
     for (k, &i) in strip.iter().enumerate() {
         let c = class[k] as usize;
         count[c] += 1;
-        for ch in 0..3 {
-            var[c][ch] += (lab[i][ch] - centres[c][ch]).powi(2);
+        for ((v, x), m) in var[c].iter_mut().zip(lab[i]).zip(centres[c]) {
+            *v += (x - m).powi(2);
         }
     }
     let sigma: [Lab; 2] =
@@ -315,8 +315,8 @@ fn class_means(strip: &[usize], class: &[u8], lab: &[Lab]) -> [Lab; 2] {
     for (k, &i) in strip.iter().enumerate() {
         let c = class[k] as usize;
         n[c] += 1;
-        for ch in 0..3 {
-            s[c][ch] += lab[i][ch];
+        for (a, x) in s[c].iter_mut().zip(lab[i]) {
+            *a += x;
         }
     }
     std::array::from_fn(|c| std::array::from_fn(|ch| s[c][ch] / n[c].max(1) as f64))

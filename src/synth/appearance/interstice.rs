@@ -3,7 +3,7 @@
 //! [references: frasson §4.2.1]
 //!
 //! The thesis scan-fills a polygon slightly longer than each edge and pastes its pixels into
-//! one image, storing the original edge length for the lookup. Our choices (digest §3.4, V17):
+//! one image, storing the original edge length for the lookup. Our choices (V17):
 //!
 //! * each strip is **rectified**: `u` runs along the edge from its first vertex `p` to its
 //!   second `q`, `v` across it, left of the direction first (the strip's top row is the
@@ -26,7 +26,7 @@ use super::types::{IntersticeAtlas, IntersticeEntry, Mesh, Point};
 use crate::raster::Image;
 use crate::synth::structure::render::mesh_edges;
 
-/// Parameters of the interstice atlas (digest §3.4, V17).
+/// Parameters of the interstice atlas (V17).
 #[derive(Clone, Debug, PartialEq)]
 pub struct IntersticeParams {
     /// Half-width `w` of a strip, px (default 6; [`measure_half_width`] estimates it from an
@@ -83,8 +83,8 @@ pub fn build_interstice_atlas(image: &Image, alpha: &Image, mesh: &Mesh, params:
                     let rgb: [f32; 3] = std::array::from_fn(|c| bilinear(image, c, pos[0], pos[1]));
                     let al = bilinear_alpha(alpha, pos[0], pos[1]);
                     let k = j * sw + i;
-                    for c in 0..3 {
-                        px[c * sw * sh + k] = rgb[c];
+                    for (c, &v) in rgb.iter().enumerate() {
+                        px[c * sw * sh + k] = v;
                     }
                     px[3 * sw * sh + k] = al;
                     let lab = lab_of_srgb(rgb);

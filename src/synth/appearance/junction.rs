@@ -2,7 +2,7 @@
 //! alpha into one RGBA image, and an exact nearest-neighbour search over the angle tuples of
 //! every valency, rotated and mirrored. [references: frasson §4.2.2]
 //!
-//! Our choices (digest §3.5, V17, V24):
+//! Our choices (V17, V24):
 //!
 //! * **Branches** of a vertex are its incident mesh edges, ordered counter-clockwise on
 //!   screen (y pointing down, so by *decreasing* direction angle, measured from +x towards
@@ -44,7 +44,7 @@ use super::types::{JunctionAtlas, JunctionEntry, Lab, Mesh, Point};
 use crate::raster::Image;
 use crate::synth::structure::render::mesh_edges;
 
-/// Parameters of the junction atlas (digest §3.5, V17).
+/// Parameters of the junction atlas (V17).
 #[derive(Clone, Debug, PartialEq)]
 pub struct JunctionParams {
     /// Half-width `w` of a branch, px (default 6, as the interstices').
@@ -217,8 +217,8 @@ pub fn build_junction_atlas(image: &Image, alpha: &Image, mesh: &Mesh, params: &
                     let rgb: [f32; 3] = std::array::from_fn(|ch| image.get(x, y, ch));
                     let a = alpha.get(x, y, 0);
                     let k = j * sw + i;
-                    for ch in 0..3 {
-                        px[ch * sw * sh + k] = rgb[ch];
+                    for (ch, &v) in rgb.iter().enumerate() {
+                        px[ch * sw * sh + k] = v;
                     }
                     px[3 * sw * sh + k] = a;
                     let lab = lab_of_srgb(rgb);
@@ -679,7 +679,7 @@ mod tests {
     }
 
     #[test]
-    fn star_geometry_follows_the_digest() {
+    fn star_geometry_of_a_t_junction_and_caps() {
         // A T junction, branches right, up (on screen), left: directions 0, 3π/2, π.
         let c = [50.0, 50.0];
         let dirs = vec![3.0 * PI / 2.0, PI, 0.0];
