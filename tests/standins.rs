@@ -32,6 +32,27 @@ fn files() -> Vec<(String, Vec<u8>)> {
             out.push((format!("{}_density.png", st.name), raster::io::encode_png(&img, 8).expect("png")));
         }
     }
+    // Photos painted for the appearance stand-ins, with their ground-truth mortar masks.
+    let walls = all();
+    let tints: [(usize, Vec<[f64; 3]>); 3] = [
+        (0, s::PaintParams::default().tints),
+        // Levens: two stone tints and green "leaf" stones.
+        (1, vec![[60.0, 4.0, 18.0], [42.0, 2.0, 6.0], [46.0, -30.0, 32.0]]),
+        // Valbonne: brick reds.
+        (2, vec![[48.0, 30.0, 28.0], [38.0, 24.0, 20.0], [56.0, 22.0, 30.0]]),
+    ];
+    for (i, tints) in tints {
+        let st = &walls[i];
+        let painted = s::paint(st, &s::PaintParams { tints, ..s::PaintParams::default() }, 7);
+        out.push((format!("{}_photo.png", st.name), raster::io::encode_png(&painted.image, 8).expect("png")));
+        let mortar = Image {
+            width: st.width,
+            height: st.height,
+            channels: 1,
+            data: painted.mortar.iter().map(|&m| if m { 1.0 } else { 0.0 }).collect(),
+        };
+        out.push((format!("{}_mortar.png", st.name), raster::io::encode_png(&mortar, 8).expect("png")));
+    }
     let (w, h) = (384, 256);
     let facade = Image { width: w, height: h, channels: 1, data: s::facade_occupancy(w, h) };
     out.push(("facade_occupancy.png".into(), raster::io::encode_png(&facade, 8).expect("png")));

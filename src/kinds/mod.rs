@@ -3,6 +3,7 @@
 //! stage graph, and its output views. This is the only layer that knows both the language
 //! and the algorithms.
 
+mod appearance;
 mod artifact;
 mod layer;
 mod library;
@@ -57,6 +58,7 @@ pub static KINDS: &[&dyn Kind] = &[
     &map::Map,
     &surface::Surface,
     &structure::Structure,
+    &appearance::Appearance,
     &layer::Layer,
     &library::Library,
     &output::Output,

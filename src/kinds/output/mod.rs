@@ -73,6 +73,13 @@ pub enum View {
     Stats,
     Seams,
     Index,
+    Albedo,
+    Alpha,
+    Unified,
+    Interstices,
+    Junctions,
+    Guides,
+    Clusters,
 }
 
 crate::choices!(
@@ -81,7 +88,9 @@ crate::choices!(
         "auto" => View::Auto, "labels" => View::Labels, "labels16" => View::Labels16, "edges" => View::Edges,
         "ellipses" => View::Ellipses, "distance" => View::Distance, "closest" => View::Closest,
         "mesh" => View::Mesh, "svg" => View::Svg, "stats" => View::Stats, "seams" => View::Seams,
-        "index" => View::Index,
+        "index" => View::Index, "albedo" => View::Albedo, "alpha" => View::Alpha, "unified" => View::Unified,
+        "interstices" => View::Interstices, "junctions" => View::Junctions, "guides" => View::Guides,
+        "clusters" => View::Clusters,
     }
 );
 

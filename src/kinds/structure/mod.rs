@@ -180,8 +180,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
             spec::Either::Second => EllipseFit::Pixels,
         },
     };
-    let analyse = FnStage::keyed("structure.analyse", 3, config, analyse);
-    let a1 = p.add(format!("structure {} (analysis)", d.name), analyse, Inputs::new(), vec![(path, path_span)]);
+    let a1 = plan_analysis(p, format!("structure {} (analysis)", d.name), config, path, path_span);
     let surface = p.result::<Plane>(on);
 
     // S1: generators. Uniform centres are drawn in proportion to the density map too, so
@@ -245,6 +244,29 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
     p.set_part(d, "analysis", a1);
     p.set_part(d, "mesh", s4);
     Ok(s4)
+}
+
+/// A1 of a sample's structure file, as a stage of its own.
+fn plan_analysis(
+    p: &mut Planner,
+    label: String,
+    config: StatsConfig,
+    path: std::path::PathBuf,
+    span: crate::lang::source::Span,
+) -> Handle<SampleStructure> {
+    p.add(label, FnStage::keyed("structure.analyse", 3, config, analyse), Inputs::new(), vec![(path, span)])
+}
+
+/// A1 with the default settings (border regions left out of the statistics, polygon
+/// moments): what other kinds read of a sample's drawn structure.
+pub(crate) fn plan_default_analysis(
+    p: &mut Planner,
+    label: String,
+    path: std::path::PathBuf,
+    span: crate::lang::source::Span,
+) -> Handle<SampleStructure> {
+    let config = StatsConfig { exclude_border_regions: true, ellipse_fit: EllipseFit::Polygon };
+    plan_analysis(p, label, config, path, span)
 }
 
 /// A1: the sample's structure file (JSON or a painted label image) analysed.

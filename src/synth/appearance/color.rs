@@ -48,7 +48,7 @@ pub fn mean_lab(values: impl IntoIterator<Item = Lab>) -> Lab {
 mod tests {
     use super::*;
 
-    /// F20: the digest's reference values.
+    /// F20: the reference values of CIELAB from sRGB (D65).
     #[test]
     fn f20_reference_values() {
         let cases: [([f32; 3], Lab, f64); 4] = [

@@ -11,6 +11,7 @@
 //! distances are CIE76 ΔE in CIELAB (D65). Atlases carry alpha as a fourth channel.
 
 pub mod alpha;
+pub mod analysis;
 pub mod cluster;
 pub mod color;
 pub mod dress;

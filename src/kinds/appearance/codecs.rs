@@ -1,0 +1,99 @@
+//! The artifacts of the appearance stages and their cache encodings: a JSON header and the
+//! images behind it, each in the raster codec, so textures stay binary.
+
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+
+use super::super::Encoded;
+use crate::raster::{self, Image};
+use crate::synth::appearance::analysis::{Contours, Interiors};
+use crate::synth::appearance::Dressing;
+
+/// `meta` as JSON, then the images, each length-prefixed (u64 little-endian).
+fn pack(meta: &impl Serialize, images: &[&Image]) -> Vec<u8> {
+    let head = serde_json::to_vec(meta).expect("appearance metadata serialises");
+    let mut out = Vec::new();
+    out.extend_from_slice(&(head.len() as u64).to_le_bytes());
+    out.extend_from_slice(&head);
+    out.extend_from_slice(&(images.len() as u64).to_le_bytes());
+    for img in images {
+        let b = raster::codec::to_bytes(img);
+        out.extend_from_slice(&(b.len() as u64).to_le_bytes());
+        out.extend_from_slice(&b);
+    }
+    out
+}
+
+fn unpack<M: DeserializeOwned>(bytes: &[u8]) -> Result<(M, Vec<Image>), String> {
+    let mut at = 0usize;
+    let mut take = |n: usize| -> Result<&[u8], String> {
+        let end = at.checked_add(n).filter(|&e| e <= bytes.len()).ok_or("truncated appearance artifact")?;
+        let s = &bytes[at..end];
+        at = end;
+        Ok(s)
+    };
+    let len = |b: &[u8]| -> Result<usize, String> {
+        usize::try_from(u64::from_le_bytes(b.try_into().expect("8 bytes"))).map_err(|e| e.to_string())
+    };
+    let n = len(take(8)?)?;
+    let meta: M = serde_json::from_slice(take(n)?).map_err(|e| e.to_string())?;
+    let count = len(take(8)?)?;
+    let mut images = Vec::with_capacity(count.min(64));
+    for _ in 0..count {
+        let n = len(take(8)?)?;
+        images.push(raster::codec::from_bytes(take(n)?).map_err(|e| e.to_string())?);
+    }
+    Ok((meta, images))
+}
+
+impl Encoded for Interiors {
+    fn encode(&self) -> Vec<u8> {
+        let (meta, images) = self.split();
+        pack(&meta, &images)
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        let (meta, images) = unpack(bytes)?;
+        Interiors::join(meta, images)
+    }
+}
+
+impl Encoded for Contours {
+    fn encode(&self) -> Vec<u8> {
+        let (meta, images) = self.split();
+        pack(&meta, &images)
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        let (meta, images) = unpack(bytes)?;
+        Contours::join(meta, images)
+    }
+}
+
+impl Encoded for Dressing {
+    fn encode(&self) -> Vec<u8> {
+        serde_json::to_vec(self).expect("dressing serialises")
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        serde_json::from_slice(bytes).map_err(|e| e.to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pack_round_trips_and_refuses_truncation() {
+        let a = Image::from_fn(3, 2, 4, |x, y, c| (x + 2 * y + 7 * c) as f32);
+        let b = Image::filled(1, 1, 1, 0.5);
+        let bytes = pack(&vec![1, 2, 3], &[&a, &b]);
+        let (meta, images): (Vec<i32>, Vec<Image>) = unpack(&bytes).unwrap();
+        assert_eq!(meta, vec![1, 2, 3]);
+        assert_eq!(images, vec![a, b]);
+        for cut in [0, 5, 9, bytes.len() - 1] {
+            assert!(unpack::<Vec<i32>>(&bytes[..cut]).is_err());
+        }
+    }
+}

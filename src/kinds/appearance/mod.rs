@@ -1,0 +1,521 @@
+//! `appearance`: structured appearance from example [references: frasson §4], as cached
+//! stages:
+//!
+//! ```text
+//! `from` image + structure ─────► appearance.interiors (A2a–d) ──┐
+//! `contours` image + structure ─► appearance.contours (A2e–f) ───┼─► appearance.dress (S5–S8)
+//! the dressed structure's mesh (or a sample's own) ──────────────┘        └─► appearance.render (R2)
+//! ```
+//!
+//! The structure stages never read the photo, and these never re-run a structure stage: a
+//! new appearance sample re-runs A2–R2 only; painting a unified texture re-runs the render
+//! only (the UVs do not change).
+
+mod codecs;
+mod spec;
+
+use std::path::PathBuf;
+
+use super::output::{encode_image, View, VIEWS};
+use super::structure::codecs::Shaped;
+use super::{Bytes, ColorSpace, FnStage, Planner};
+use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
+use crate::lang::source::Span;
+use crate::lang::{Decl, Diagnostic};
+use crate::raster::{self, Image};
+use crate::synth::appearance::analysis::{self, ContourParams, Contours, Interiors};
+use crate::synth::appearance::cluster::Clusters;
+use crate::synth::appearance::dress::{self, ClusterChoice, DressHints, DressParams, FlipMode};
+use crate::synth::appearance::render::{self, RenderParams};
+use crate::synth::appearance::unified::{InteriorParams, UnifiedParams};
+use crate::synth::appearance::Dressing;
+use crate::synth::structure::analysis::sample::SampleStructure;
+
+pub use spec::SPEC;
+
+/// Working memory per rendered pixel: the RGBA result, its supersampled coverage and the
+/// per-layer scratch (four f32 planes each).
+const RENDER_BYTES_PER_PIXEL: f64 = 48.0;
+
+/// The sample a role (`from`, `contours`, `on`) names: its image node and the analysis of its
+/// drawn structure.
+struct SampleInputs {
+    image: Handle<Image>,
+    space: ColorSpace,
+    analysis: Handle<SampleStructure>,
+}
+
+fn sample_inputs(p: &mut Planner, d: &Decl, role: &'static str, name: &str) -> Result<SampleInputs, Diagnostic> {
+    let at = d.props.span(role).unwrap_or(d.name_span);
+    let sample = p.decl(name);
+    let exports = p.exports(name);
+    let Some((path, path_span)) = exports.example else {
+        return Err(Diagnostic::error(format!("{} `{name}` has no `structure` drawn on its image", sample.kind))
+            .with_code("tessera::appearance_sample")
+            .with_label(at, "this sample")
+            .with_label(sample.name_span, "declared here")
+            .with_help("an appearance sample needs an `image` and the `structure` drawn on it (a JSON subdivision or a painted label image)"));
+    };
+    let Some(space) = exports.image else {
+        return Err(Diagnostic::error(format!(
+            "{} `{name}` has a structure but no image to take appearance from",
+            sample.kind
+        ))
+        .with_code("tessera::appearance_sample")
+        .with_label(at, "this sample")
+        .with_label(sample.name_span, "declared here")
+        .with_help("give the sample an `image` (the photo its structure was drawn on)"));
+    };
+    let analysis = plan_analysis(p, name, path, path_span);
+    Ok(SampleInputs { image: p.result(name), space, analysis })
+}
+
+/// The analysis of a sample's drawn structure, with the structure kind's default settings
+/// (so a structure learning from the same sample shares the cache entry).
+fn plan_analysis(p: &mut Planner, sample: &str, path: PathBuf, span: Span) -> Handle<SampleStructure> {
+    super::structure::plan_default_analysis(p, format!("sample {sample} (structure analysis)"), path, span)
+}
+
+/// What the dressed mesh is.
+#[derive(Clone, Copy, serde::Serialize)]
+enum Target {
+    /// A synthesised structure; `associated` when it learnt from the interiors sample, so
+    /// its stage-2 associations name that sample's regions.
+    Structure { mesh: In<Shaped>, associated: bool },
+    /// A sample's own drawn structure.
+    Sample(In<SampleStructure>),
+}
+
+/// What A2a–d work from.
+#[derive(serde::Serialize)]
+struct InteriorWork {
+    image: In<Image>,
+    space: ColorSpace,
+    analysis: In<SampleStructure>,
+    params: InteriorSettings,
+    seed: u64,
+}
+
+/// What A2e–f work from; the alpha override is the stage's file, when given.
+#[derive(serde::Serialize)]
+struct ContourWork {
+    image: In<Image>,
+    space: ColorSpace,
+    analysis: In<SampleStructure>,
+    params: ContourParams,
+    alpha_override: bool,
+}
+
+/// What S5–S8 work from.
+#[derive(serde::Serialize)]
+struct DressWork {
+    target: Target,
+    interiors: In<Interiors>,
+    contours: In<Contours>,
+    params: DressSettings,
+    seed: u64,
+}
+
+/// What R2 works from.
+#[derive(serde::Serialize)]
+struct RenderWork {
+    dressing: In<Dressing>,
+    interiors: In<Interiors>,
+    contours: In<Contours>,
+    size: RenderSize,
+    scale: f64,
+}
+
+/// The rendered size: a structure's surface's, or a dressed sample's (known once analysed),
+/// times `resolution`.
+#[derive(Clone, Copy, serde::Serialize)]
+enum RenderSize {
+    Fixed(usize, usize),
+    OfSample(In<SampleStructure>),
+}
+
+fn scaled(n: usize, scale: f64) -> usize {
+    ((n as f64) * scale).round().max(1.0) as usize
+}
+
+pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
+    let props = &d.props;
+    let from = props.reference("from").expect("required").to_string();
+    let contours_name = props.reference("contours").unwrap_or(&from).to_string();
+    let seed = props.get("seed").map(|_| props.int("seed") as u64).unwrap_or_else(|| p.seed(d, "appearance"));
+    let interiors_in = sample_inputs(p, d, "from", &from)?;
+    let contours_in = if contours_name == from { None } else { Some(sample_inputs(p, d, "contours", &contours_name)?) };
+
+    // The mesh to dress, and the size it is drawn on (a sample's is known when analysed).
+    let on = props.reference("on").unwrap_or(&from).to_string();
+    let scale = props.num("resolution");
+    let (target_handle, size) = if p.exports(&on).example.is_some() {
+        let analysis = if on == from { interiors_in.analysis } else { sample_inputs(p, d, "on", &on)?.analysis };
+        (TargetHandle::Sample(analysis), None)
+    } else {
+        let on_decl = p.decl(&on);
+        let mesh = p.part(&on, "mesh").expect("structures plan a mesh stage");
+        let associated = on_decl.props.reference("from") == Some(from.as_str());
+        let surface = on_decl.props.reference("on").expect("required").to_string();
+        let ((w, h), _) = p.plane(&surface);
+        let (rw, rh) = (scaled(w, scale), scaled(h, scale));
+        p.check_pixels(d, props.span("resolution"), (rw, rh), RENDER_BYTES_PER_PIXEL)?;
+        (TargetHandle::Structure { mesh, associated }, Some((rw, rh)))
+    };
+
+    // A2a–d: region interiors.
+    let mut inputs = Inputs::new();
+    let work = InteriorWork {
+        image: inputs.add(interiors_in.image),
+        space: interiors_in.space,
+        analysis: inputs.add(interiors_in.analysis),
+        params: interior_settings(props),
+        seed,
+    };
+    let a2 = p.add(
+        format!("appearance {} (interiors)", d.name),
+        FnStage::keyed("appearance.interiors", 1, work, run_interiors),
+        inputs,
+        vec![],
+    );
+
+    // A2e–f: interstice and junction atlases.
+    let c = contours_in.as_ref().unwrap_or(&interiors_in);
+    let mut inputs = Inputs::new();
+    let mut files = Vec::new();
+    if let Some(path) = props.path("alpha") {
+        files.push((path.clone(), props.span("alpha").unwrap_or(d.name_span)));
+    }
+    let work = ContourWork {
+        image: inputs.add(c.image),
+        space: c.space,
+        analysis: inputs.add(c.analysis),
+        params: contour_settings(props),
+        alpha_override: !files.is_empty(),
+    };
+    let a3 = p.add(
+        format!("appearance {} (contours)", d.name),
+        FnStage::keyed("appearance.contours", 1, work, run_contours),
+        inputs,
+        files,
+    );
+
+    // S5–S8: the dressing.
+    let mut inputs = Inputs::new();
+    let target = match target_handle {
+        TargetHandle::Structure { mesh, associated } => Target::Structure { mesh: inputs.add(mesh), associated },
+        TargetHandle::Sample(a) => Target::Sample(inputs.add(a)),
+    };
+    let work =
+        DressWork { target, interiors: inputs.add(a2), contours: inputs.add(a3), params: dress_settings(props), seed };
+    let s5 = p.add(
+        format!("appearance {} (dress)", d.name),
+        FnStage::keyed("appearance.dress", 1, work, run_dress),
+        inputs,
+        vec![],
+    );
+
+    // R2: the render.
+    let mut inputs = Inputs::new();
+    let size = match (size, target_handle) {
+        (Some(wh), _) => RenderSize::Fixed(wh.0, wh.1),
+        (None, TargetHandle::Sample(a)) => RenderSize::OfSample(inputs.add(a)),
+        (None, TargetHandle::Structure { .. }) => unreachable!("a structure's size is its surface's"),
+    };
+    let work =
+        RenderWork { dressing: inputs.add(s5), interiors: inputs.add(a2), contours: inputs.add(a3), size, scale };
+    let r2 = p.add(
+        format!("appearance {} (render)", d.name),
+        FnStage::keyed("appearance.render", 1, work, run_render),
+        inputs,
+        vec![],
+    );
+
+    p.set_part(d, "interiors", a2);
+    p.set_part(d, "contours", a3);
+    p.set_part(d, "dressing", s5);
+    Ok(r2)
+}
+
+/// The interior analysis settings as the language gives them.
+#[derive(Clone, Copy, serde::Serialize)]
+struct InteriorSettings {
+    shrink: f64,
+    clusters: Option<usize>,
+    texture_size: Option<usize>,
+    block: usize,
+}
+
+fn interior_settings(props: &crate::lang::Props) -> InteriorSettings {
+    InteriorSettings {
+        shrink: props.num("shrink"),
+        clusters: props.get("clusters").map(|_| props.int("clusters") as usize),
+        texture_size: props.get("texture_size").map(|_| props.num("texture_size") as usize),
+        block: props.num("block") as usize,
+    }
+}
+
+impl InteriorSettings {
+    fn params(&self) -> InteriorParams {
+        let mut p = InteriorParams::default();
+        p.shrink = self.shrink;
+        p.clusters = match self.clusters {
+            Some(k) => Clusters::Fixed(k),
+            None => Clusters::Auto,
+        };
+        p.unified = UnifiedParams { size: self.texture_size, block: self.block, ..p.unified.clone() };
+        p
+    }
+}
+
+fn contour_settings(props: &crate::lang::Props) -> ContourParams {
+    let i = props.block("interstice");
+    let j = props.block("junction");
+    ContourParams {
+        half_width: i.num("half_width"),
+        extension: i.opt_num("extension"),
+        branch_len: j.opt_num("branch_length"),
+        shrink: props.num("shrink"),
+    }
+}
+
+/// The synthesis settings as the language gives them.
+#[derive(Clone, Copy, serde::Serialize)]
+struct DressSettings {
+    cluster_choice: spec::ClusterChoice,
+    flip: spec::Flip,
+    candidates: usize,
+    match_contours: bool,
+}
+
+fn dress_settings(props: &crate::lang::Props) -> DressSettings {
+    DressSettings {
+        cluster_choice: spec::CLUSTER_CHOICES.get(props.enumeration("cluster_choice")),
+        flip: spec::FLIPS.get(props.block("interstice").enumeration("flip")),
+        candidates: props.block("junction").int("candidates") as usize,
+        match_contours: props.bool("match"),
+    }
+}
+
+impl DressSettings {
+    fn params(&self) -> DressParams {
+        DressParams {
+            cluster_choice: match self.cluster_choice {
+                spec::ClusterChoice::ClosestShape => ClusterChoice::ClosestShape,
+                spec::ClusterChoice::Random => ClusterChoice::Random,
+            },
+            flip: match self.flip {
+                spec::Flip::Random => FlipMode::Random,
+                spec::Flip::None => FlipMode::None,
+                spec::Flip::BestColor => FlipMode::BestColor,
+            },
+            junction_k: self.candidates,
+            match_contours: self.match_contours,
+            ..DressParams::default()
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+enum TargetHandle {
+    Structure { mesh: Handle<Shaped>, associated: bool },
+    Sample(Handle<SampleStructure>),
+}
+
+/// The sample image as sRGB-encoded values, whatever colour space it was declared in.
+fn srgb(img: &Image, space: ColorSpace) -> Image {
+    match space {
+        ColorSpace::Srgb => img.clone(),
+        ColorSpace::Linear => raster::color::image_linear_to_srgb(img),
+        ColorSpace::Lab => raster::color::image_linear_to_srgb(&raster::color::image_lab_to_linear(img)),
+    }
+}
+
+/// The sample image checked against its structure: RGB, the structure's size.
+fn checked_image(img: &Image, space: ColorSpace, s: &SampleStructure, role: &'static str) -> Result<Image, StageError> {
+    let (w, h) = (s.size[0].round() as usize, s.size[1].round() as usize);
+    if img.width != w || img.height != h {
+        return Err(StageError::new(format!(
+            "the sample's image is {}x{} but its structure is drawn on {w}x{h}",
+            img.width, img.height
+        ))
+        .at_prop(role)
+        .with_help("draw the structure on the image itself (same size), or crop/resize the image to the structure"));
+    }
+    let img = srgb(img, space);
+    Ok(match img.channels {
+        1 | 2 => Image::from_fn(img.width, img.height, 3, |x, y, _| img.get(x, y, 0)),
+        _ => Image::from_fn(img.width, img.height, 3, |x, y, c| img.get(x, y, c)),
+    })
+}
+
+fn run_interiors(cx: &RunCx, w: &InteriorWork) -> Result<Interiors, StageError> {
+    let s = cx.get(w.analysis);
+    let img = checked_image(&cx.get(w.image), w.space, &s, "from")?;
+    let r = analysis::interiors(&img, &s, &w.params.params(), w.seed)
+        .map_err(|e| StageError::new(e.to_string()).at_prop("from"))?;
+    for warning in &r.warnings {
+        cx.warn(warning.clone());
+    }
+    Ok(r)
+}
+
+fn run_contours(cx: &RunCx, w: &ContourWork) -> Result<Contours, StageError> {
+    let s = cx.get(w.analysis);
+    let img = checked_image(&cx.get(w.image), w.space, &s, "contours")?;
+    let alpha = if w.alpha_override {
+        let bytes = cx.file(0)?;
+        let a = super::decode_image(&bytes, cx.budget())
+            .map_err(|e| StageError::new(format!("cannot decode the alpha map: {e}")).in_file(0))?;
+        if a.width != img.width || a.height != img.height {
+            return Err(StageError::new(format!(
+                "the alpha map is {}x{} but the contours sample is {}x{}",
+                a.width, a.height, img.width, img.height
+            ))
+            .in_file(0)
+            .with_help("paint the alpha map over the sample image itself: white = mortar, black = stone"));
+        }
+        Some(Image::from_fn(a.width, a.height, 1, |x, y, _| a.get(x, y, 0)))
+    } else {
+        None
+    };
+    analysis::contours(&img, &s, &w.params, alpha.as_ref())
+        .map_err(|e| StageError::new(e.to_string()).at_prop("contours"))
+}
+
+fn run_dress(cx: &RunCx, w: &DressWork) -> Result<Dressing, StageError> {
+    let interiors = cx.get(w.interiors);
+    let contours = cx.get(w.contours);
+    let data = analysis::appearance_data(&interiors, &contours);
+    let dressing = match w.target {
+        Target::Structure { mesh, associated } => {
+            let shaped = cx.get(mesh);
+            let known: Option<Vec<Option<usize>>> = associated.then(|| {
+                shaped.associated.iter().map(|a| a.and_then(|a| interiors.original_of_region(a.region))).collect()
+            });
+            let hints = DressHints { associations: known.as_deref(), previous_clusters: None };
+            dress::dress(&shaped.mesh, &data, &w.params.params(), w.seed, &hints)
+        }
+        Target::Sample(a) => {
+            let s = cx.get(a);
+            dress::dress(&s.mesh, &data, &w.params.params(), w.seed, &DressHints::default())
+        }
+    };
+    for warning in &dressing.warnings {
+        cx.warn(warning.clone());
+    }
+    Ok(dressing)
+}
+
+fn run_render(cx: &RunCx, w: &RenderWork) -> Result<Image, StageError> {
+    let dressing = cx.get(w.dressing);
+    let interiors = cx.get(w.interiors);
+    let contours = cx.get(w.contours);
+    let data = analysis::appearance_data(&interiors, &contours);
+    let (width, height) = match w.size {
+        RenderSize::Fixed(width, height) => (width, height),
+        RenderSize::OfSample(a) => {
+            let s = cx.get(a);
+            let (width, height) =
+                (scaled(s.size[0].round() as usize, w.scale), scaled(s.size[1].round() as usize, w.scale));
+            cx.budget()
+                .check(width as f64 * height as f64 * RENDER_BYTES_PER_PIXEL, "the appearance's render")
+                .map_err(|e| StageError::new(e).at_prop("resolution"))?;
+            (width, height)
+        }
+    };
+    let params = RenderParams { width, height, scale: w.scale, background: [0.0; 3] };
+    let r = render::render(&dressing, &data, &params);
+    // RGBA: the albedo and its coverage (openings and the outside stay transparent).
+    let n = width * height;
+    let mut data = r.color.data;
+    data.truncate(3 * n);
+    data.extend_from_slice(&r.coverage.data[..n]);
+    Ok(Image { width, height, channels: 4, data })
+}
+
+/// The file a view writes.
+#[derive(serde::Serialize)]
+struct ViewWork {
+    view: View,
+    format: super::OutputFormat,
+    interiors: In<Interiors>,
+    contours: In<Contours>,
+    render: In<Image>,
+}
+
+fn plan_view(p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
+    let d = out.decl;
+    let view = out.view;
+    if view == View::Auto {
+        return Ok(None);
+    }
+    if !matches!(
+        view,
+        View::Albedo
+            | View::Alpha
+            | View::Unified
+            | View::Interstices
+            | View::Junctions
+            | View::Guides
+            | View::Clusters
+    ) || out.format.is_text()
+    {
+        return Err(Diagnostic::error(format!("an appearance has no `{}` view in this format", VIEWS.name(view)))
+            .with_code("tessera::output_view")
+            .with_label(d.props.span("view").unwrap_or(d.name_span), "this view")
+            .with_help("its views are albedo, alpha, unified, interstices, junctions, guides and clusters, written to `.png` or `.exr`"));
+    }
+    let mut inputs = Inputs::new();
+    let work = ViewWork {
+        view,
+        format: out.format,
+        interiors: inputs.add(p.part(out.from, "interiors").expect("appearances plan interiors")),
+        contours: inputs.add(p.part(out.from, "contours").expect("appearances plan contours")),
+        render: inputs.add(p.result(out.from)),
+    };
+    let node =
+        p.add(format!("output {}", d.name), FnStage::keyed("appearance.view", 1, work, run_view), inputs, vec![]);
+    Ok(Some(super::ViewNode { node, exact: false }))
+}
+
+fn run_view(cx: &RunCx, w: &ViewWork) -> Result<Bytes, StageError> {
+    let img = match w.view {
+        View::Albedo | View::Alpha => {
+            let r = cx.get(w.render);
+            let channels = if w.view == View::Albedo { 0..3 } else { 3..4 };
+            Image::from_fn(r.width, r.height, channels.len(), |x, y, c| r.get(x, y, channels.start + c))
+        }
+        View::Unified => analysis::side_by_side(cx.get(w.interiors).unified.iter().map(|u| &u.image)),
+        View::Guides => analysis::side_by_side(cx.get(w.interiors).guides.iter()),
+        View::Clusters => cx.get(w.interiors).cluster_view.clone(),
+        View::Interstices => cx.get(w.contours).interstices.image.clone(),
+        View::Junctions => cx.get(w.contours).junctions.image.clone(),
+        other => unreachable!("`{}` is checked when planned", VIEWS.name(other)),
+    };
+    // Textures and renders hold sRGB values; EXR files hold linear light.
+    let img = match w.format {
+        super::OutputFormat::Exr => raster::color::image_srgb_to_linear(&img),
+        _ => img,
+    };
+    encode_image(&img, w.format)
+}
+
+/// The appearance kind.
+pub struct Appearance;
+
+impl super::Kind for Appearance {
+    fn spec(&self) -> &'static crate::lang::KindSpec {
+        &SPEC
+    }
+
+    fn plan(&self, p: &mut Planner, d: &Decl) -> Result<Option<AnyHandle>, Diagnostic> {
+        let node = plan(p, d)?;
+        p.export(d).image = Some(ColorSpace::Srgb);
+        Ok(Some(node.erase()))
+    }
+
+    fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
+        plan_view(p, out)
+    }
+}
