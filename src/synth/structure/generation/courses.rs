@@ -3,12 +3,14 @@
 //! whose lengths are drawn from its brick lengths, head joints staggered against the course
 //! above as the sample's are [references: frasson §3.8.1]
 //!
-//! Heights and lengths are drawn from the sample's measured values (a bootstrap, rounded to
-//! whole pixels at the structure's `scale`), so the wall varies exactly as much as the sample
-//! does and no more. Each course starts with its first head joint at a stagger drawn from the
+//! Heights and lengths are drawn from the sample's measured values (rounded to whole pixels at
+//! the structure's `scale`; heights dealt in shuffled rounds of all the sample's, lengths a
+//! bootstrap), so the wall varies exactly as much as the sample does and no more. Each course starts with its first head joint at a stagger drawn from the
 //! sample's, so a sample of equal bricks regrows in its own bond; later joints that would
 //! continue a joint of the course above (nearer than the sample's tenth-percentile stagger,
-//! at most a fifth of the mean length) are drawn again, up to eight times.
+//! at most a fifth of the mean length) are drawn again, up to eight times. At the target's
+//! border a course or brick is cut, but never to a sliver: one under a quarter of its size
+//! (or 3 px) joins its neighbour.
 //!
 //! The occupancy map acts as on the statistical path: a brick whose centre is forbidden (or,
 //! with `any_overlap`, any of whose pixels is) is removed, the others are cut by the forbidden
@@ -52,11 +54,38 @@ pub fn rect_ellipse(r: [f64; 4]) -> Ellipse {
     fit_polygon(&[[r[0], r[1]], [r[2], r[1]], [r[2], r[3]], [r[0], r[3]]]).expect("a brick has area")
 }
 
+/// Narrowest piece of a brick or course (px) left at the target's border; a narrower one
+/// (or one under a quarter of a brick or course) joins its neighbour.
+const MIN_PIECE: f64 = 3.0;
+
 /// Most draws for a head joint that would continue one of the course above.
 const JOINT_TRIES: usize = 8;
 
 fn draw(pool: &[f64], scale: f64, least: f64, rng: &mut Rng) -> f64 {
     (pool[rng.below(pool.len())] * scale).round().max(least)
+}
+
+/// The sample's values dealt in shuffled rounds: every value once before any twice, so a
+/// wall of few courses still has the sample's spread of heights (iid draws from a dozen
+/// heights would not).
+struct Deck {
+    values: Vec<f64>,
+    next: usize,
+}
+
+impl Deck {
+    fn new(values: &[f64]) -> Self {
+        Deck { values: values.to_vec(), next: values.len() }
+    }
+
+    fn deal(&mut self, scale: f64, least: f64, rng: &mut Rng) -> f64 {
+        if self.next == self.values.len() {
+            rng.shuffle(&mut self.values);
+            self.next = 0;
+        }
+        self.next += 1;
+        (self.values[self.next - 1] * scale).round().max(least)
+    }
 }
 
 /// Lays courses over `w × h` from the sample's course measurement at `scale`. `courses` must
@@ -71,13 +100,20 @@ pub fn layout_courses(w: usize, h: usize, courses: &CourseAnalysis, scale: f64, 
     stagger.sort_by(f64::total_cmp);
     let least_stagger = if stagger.is_empty() { 0.2 } else { stagger[stagger.len() / 10].min(0.2) };
     let mut bricks = Vec::new();
-    let first_h = draw(heights, scale, 1.0, rng);
-    let mut y = -(rng.next_f64() * first_h).floor();
+    let mut heights = Deck::new(heights);
+    let first_h = heights.deal(scale, 1.0, rng);
+    // The first course shows at least a quarter of its height.
+    let mut y = -(rng.next_f64() * 0.75 * first_h).floor();
     let mut h_k = first_h;
     // The previous course's boundaries (its first ≤ 0, its last ≥ w).
     let mut above: Vec<f64> = Vec::new();
     let mut k = 0;
     while y < hf {
+        // A sliver of a course left below this one joins it.
+        let rest = hf - (y + h_k);
+        if rest > 0.0 && rest < (0.25 * h_k).max(MIN_PIECE) {
+            h_k = hf - y;
+        }
         let nearest = |x: f64, above: &[f64]| above.iter().map(|&a| (a - x).abs()).fold(f64::INFINITY, f64::min);
         let mut bounds = Vec::new();
         let mut x = if above.is_empty() {
@@ -107,6 +143,15 @@ pub fn layout_courses(w: usize, h: usize, courses: &CourseAnalysis, scale: f64, 
             x = best.1;
             bounds.push(x);
         }
+        // Slivers of bricks at the ends join their neighbours.
+        let least = (0.25 * mean_l).max(MIN_PIECE);
+        let n = bounds.len();
+        if n >= 3 && wf - bounds[n - 2] < least {
+            bounds.remove(n - 2);
+        }
+        if bounds.len() >= 3 && bounds[1] < least {
+            bounds.remove(1);
+        }
         let (y0, y1) = (y.max(0.0), (y + h_k).min(hf));
         for p in bounds.windows(2) {
             let (x0, x1) = (p[0].max(0.0), p[1].min(wf));
@@ -116,7 +161,7 @@ pub fn layout_courses(w: usize, h: usize, courses: &CourseAnalysis, scale: f64, 
         }
         above = bounds;
         y += h_k;
-        h_k = draw(heights, scale, 1.0, rng);
+        h_k = heights.deal(scale, 1.0, rng);
         k += 1;
     }
     CourseLayout { bricks }
