@@ -94,8 +94,12 @@ fn find(parent: &mut [usize], mut i: usize) -> usize {
 /// region used by the statistics is interior) of a `size` sample.
 pub fn detect_courses(polygons: &[Vec<Point>], border: &[bool], interior: &[bool], size: [f64; 2]) -> CourseAnalysis {
     let boxes: Vec<[f64; 4]> = polygons.iter().map(|p| bbox(p)).collect();
-    let usable: Vec<usize> =
-        (0..boxes.len()).filter(|&r| boxes[r][3] - boxes[r][1] > 0.5 && boxes[r][2] - boxes[r][0] > 0.5).collect();
+    let height = |r: usize| boxes[r][3] - boxes[r][1];
+    let sized: Vec<usize> = (0..boxes.len()).filter(|&r| height(r) > 0.5 && boxes[r][2] - boxes[r][0] > 0.5).collect();
+    // A region far taller than the typical one (painted mortar around every brick, whose box
+    // is the sample's) would join every row: it is no brick.
+    let typical = median(&mut sized.iter().map(|&r| height(r)).collect::<Vec<_>>());
+    let usable: Vec<usize> = sized.into_iter().filter(|&r| height(r) <= 2.5 * typical).collect();
     // Rows: regions whose vertical extents overlap by ≥ 70 % of the smaller one.
     let mut parent: Vec<usize> = (0..boxes.len()).collect();
     for (i, &a) in usable.iter().enumerate() {
@@ -237,7 +241,7 @@ mod tests {
         let mut polys = Vec::new();
         for k in 0..6 {
             let y = 16.0 * k as f64;
-            let mut x = if k % 2 == 0 { 0.0 } else { -20.0 };
+            let mut x: f64 = if k % 2 == 0 { 0.0 } else { -20.0 };
             while x < 200.0 {
                 polys.push(rect(x.max(0.0), y, (x + 40.0).min(200.0), y + 16.0));
                 x += 40.0;
