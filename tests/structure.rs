@@ -635,8 +635,7 @@ fn assert_keeps_courses(name: &str, f: &CourseFigures) {
 
 fn brick_bond_json() -> (String, SampleStructure) {
     let (st, _) = standins::brick_bond(&standins::BrickBondParams::default(), 1);
-    let text =
-        tessera::synth::structure::format::to_json_sized(&st.subdivision, [st.width as f64, st.height as f64]);
+    let text = tessera::synth::structure::format::to_json_sized(&st.subdivision, [st.width as f64, st.height as f64]);
     let sample = analyse_sample(&text, &StatsConfig::default()).expect("analyses");
     (text, sample)
 }
@@ -712,7 +711,8 @@ fn bricks_painted_labels() -> (Vec<u32>, usize, usize) {
     // Mortar to the nearest brick: breadth-first from every brick pixel at once.
     while let Some(p) = queue.pop_front() {
         let (x, y) = (p % w, p / w);
-        for (ok, q) in [(x > 0, p.wrapping_sub(1)), (x + 1 < w, p + 1), (y > 0, p.wrapping_sub(w)), (y + 1 < h, p + w)] {
+        for (ok, q) in [(x > 0, p.wrapping_sub(1)), (x + 1 < w, p + 1), (y > 0, p.wrapping_sub(w)), (y + 1 < h, p + w)]
+        {
             if ok && ids[q] == u32::MAX {
                 ids[q] = ids[p];
                 queue.push_back(q);
@@ -779,7 +779,9 @@ fn issue13_an_irregular_wall_is_not_coursed_and_auto_keeps_it_statistical() {
 fn issue13_statistical_layout_keeps_the_cobbles_path_on_bricks() {
     // `layout = statistical` on a layered sample: Lloyd runs (not the laid courses).
     let (text, _) = brick_bond_json();
-    let scene = |layout: &str| coursed_scene("wall.json", 240, 160, &format!("  lloyd {{ iterations = 3 }}\n  layout = {layout}\n"));
+    let scene = |layout: &str| {
+        coursed_scene("wall.json", 240, 160, &format!("  lloyd {{ iterations = 3 }}\n  layout = {layout}\n"))
+    };
     let a = Project::new(&[("scene.tess", &scene("statistical"))]);
     let b = Project::new(&[("scene.tess", &scene("courses"))]);
     for p in [&a, &b] {

@@ -459,6 +459,8 @@ fn centers(props: &Props) -> spec::Centers {
 struct SampleOptions {
     statistical: bool,
     layout: spec::Layout,
+    /// The maps given that laid courses ignore (for the warning).
+    unsteered: Vec<&'static str>,
     scale: f64,
     centers: spec::Centers,
     joint: bool,
@@ -479,6 +481,10 @@ impl SampleOptions {
         SampleOptions {
             statistical: spec::MODES.get(props.enumeration("mode")) == spec::Mode::Statistical,
             layout: spec::LAYOUTS.get(props.enumeration("layout")),
+            unsteered: ["density", "size", "orientation", "metric_map"]
+                .into_iter()
+                .filter(|m| props.reference(m).is_some())
+                .collect(),
             scale: props.num("scale"),
             centers: centers(props),
             joint: spec::SHAPE_SAMPLING.get(props.enumeration("shape_sampling")) == spec::Either::Second,
@@ -545,6 +551,14 @@ fn sample_generators(cx: &RunCx, s: &Sampling) -> Result<Generators, StageError>
         }
     };
     if use_courses {
+        if !o.unsteered.is_empty() {
+            let maps: Vec<String> = o.unsteered.iter().map(|m| format!("`{m}`")).collect();
+            cx.warn(format!(
+                "the sample is layered and is laid in courses, which {} do{} not steer (`layout = statistical` keeps Lloyd and the maps)",
+                maps.join(", "),
+                if maps.len() == 1 { "es" } else { "" }
+            ));
+        }
         let mut rng = Rng::new(s.courses_seed);
         let mut layout = generation_courses::layout_courses(w, h, coursed, o.scale, &mut rng);
         let total = layout.bricks.len();

@@ -176,8 +176,7 @@ pub fn detect_courses(polygons: &[Vec<Point>], border: &[bool], interior: &[bool
     let mut lengths = Vec::new();
     let mut lengths_per_course = Vec::new();
     for c in &courses {
-        let heads: Vec<f64> =
-            c.regions.windows(2).map(|p| (boxes[p[1]][0] - boxes[p[0]][2]).max(0.0)).collect();
+        let heads: Vec<f64> = c.regions.windows(2).map(|p| (boxes[p[1]][0] - boxes[p[0]][2]).max(0.0)).collect();
         let head_gap = heads.iter().sum::<f64>() / heads.len().max(1) as f64;
         let l: Vec<f64> = c
             .regions

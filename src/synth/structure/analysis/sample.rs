@@ -89,9 +89,8 @@ pub fn analyse_subdivision(
     let polygons: Vec<Vec<Point>> = (0..faces.regions.len()).map(|r| faces.polygon(sub, r)).collect();
     let border: Vec<bool> = faces.regions.iter().map(|r| r.is_border()).collect();
     let ellipses: Vec<Option<Ellipse>> = analysis.model.regions.iter().map(|r| r.ellipse).collect();
-    let interior: Vec<bool> = (0..polygons.len())
-        .map(|r| !(config.exclude_border_regions && border[r]) && ellipses[r].is_some())
-        .collect();
+    let interior: Vec<bool> =
+        (0..polygons.len()).map(|r| !(config.exclude_border_regions && border[r]) && ellipses[r].is_some()).collect();
     let courses = detect_courses(&polygons, &border, &interior, size);
     Ok(SampleStructure {
         size,

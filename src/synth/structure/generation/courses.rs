@@ -191,7 +191,12 @@ pub fn drop_forbidden_bricks(layout: &mut CourseLayout, w: usize, allowed: &[boo
 
 /// The label raster of a layout and the ellipse of every label: kept bricks first (in brick
 /// order, as [`CourseLayout::ellipses`]), then the pieces split off cut bricks.
-pub fn rasterize_courses(layout: &CourseLayout, w: usize, h: usize, allowed: Option<&[bool]>) -> (Labels, Vec<Ellipse>) {
+pub fn rasterize_courses(
+    layout: &CourseLayout,
+    w: usize,
+    h: usize,
+    allowed: Option<&[bool]>,
+) -> (Labels, Vec<Ellipse>) {
     let mut labels = Labels::new(w, h);
     let mut ids = vec![NO_REGION; layout.bricks.len()];
     let mut next = 0u32;
@@ -357,10 +362,15 @@ mod tests {
         let polys: Vec<Vec<[f64; 2]>> = layout
             .bricks
             .iter()
-            .map(|b| vec![[b.rect[0], b.rect[1]], [b.rect[2], b.rect[1]], [b.rect[2], b.rect[3]], [b.rect[0], b.rect[3]]])
+            .map(|b| {
+                vec![[b.rect[0], b.rect[1]], [b.rect[2], b.rect[1]], [b.rect[2], b.rect[3]], [b.rect[0], b.rect[3]]]
+            })
             .collect();
-        let border: Vec<bool> =
-            layout.bricks.iter().map(|b| b.rect[0] <= 0.0 || b.rect[1] <= 0.0 || b.rect[2] >= 200.0 || b.rect[3] >= 120.0).collect();
+        let border: Vec<bool> = layout
+            .bricks
+            .iter()
+            .map(|b| b.rect[0] <= 0.0 || b.rect[1] <= 0.0 || b.rect[2] >= 200.0 || b.rect[3] >= 120.0)
+            .collect();
         let interior: Vec<bool> = border.iter().map(|b| !b).collect();
         let found = detect_courses(&polys, &border, &interior, [200.0, 120.0]);
         assert!(found.layered);
@@ -384,7 +394,8 @@ mod tests {
         let (w, h) = (200, 120);
         let mut layout = layout_courses(w, h, &c, 1.0, &mut Rng::new(5));
         // A window 30 px wide from x = 85, y = 30 to 70.
-        let allowed: Vec<bool> = (0..w * h).map(|i| !((85..115).contains(&(i % w)) && (30..70).contains(&(i / w)))).collect();
+        let allowed: Vec<bool> =
+            (0..w * h).map(|i| !((85..115).contains(&(i % w)) && (30..70).contains(&(i / w)))).collect();
         let dropped = drop_forbidden_bricks(&mut layout, w, &allowed, RemoveMode::Center);
         assert!(dropped > 0);
         let (labels, ellipses) = rasterize_courses(&layout, w, h, Some(&allowed));
