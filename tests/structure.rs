@@ -522,3 +522,336 @@ fn f11_wall_random_regrown_through_the_histogram_sampler_keeps_its_statistics() 
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// Issue 13: structures that keep their courses.
+
+use tessera::synth::structure::analysis::courses::{detect_courses, staggered_share, CourseAnalysis};
+use tessera::synth::structure::analysis::sample::{analyse_label_image, analyse_sample, SampleStructure};
+use tessera::synth::structure::analysis::stats::StatsConfig;
+use tessera::synth::structure::fixtures::ellipses::ks;
+use tessera::synth::structure::fixtures::standins;
+
+/// The regions of an output `mesh.json` as polygons.
+fn mesh_polygons(bytes: &[u8]) -> (Vec<Vec<[f64; 2]>>, [f64; 2]) {
+    let v: serde_json::Value = serde_json::from_slice(bytes).expect("mesh json");
+    let vertices: Vec<[f64; 2]> = v["vertices"]
+        .as_array()
+        .expect("vertices")
+        .iter()
+        .map(|p| [p[0].as_f64().unwrap(), p[1].as_f64().unwrap()])
+        .collect();
+    let polys = v["regions"]
+        .as_array()
+        .expect("regions")
+        .iter()
+        .map(|r| r.as_array().unwrap().iter().map(|i| vertices[i.as_u64().unwrap() as usize]).collect())
+        .collect();
+    (polys, [v["size"][0].as_f64().unwrap(), v["size"][1].as_f64().unwrap()])
+}
+
+fn centroid(poly: &[[f64; 2]]) -> [f64; 2] {
+    let (mut a, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for i in 0..poly.len() {
+        let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+        let c = p[0] * q[1] - q[0] * p[1];
+        a += c;
+        cx += (p[0] + q[0]) * c;
+        cy += (p[1] + q[1]) * c;
+    }
+    [cx / (3.0 * a), cy / (3.0 * a)]
+}
+
+/// The issue's figures of a regrown wall against its sample.
+struct CourseFigures {
+    regions: usize,
+    in_course: f64,
+    ks_heights: f64,
+    ks_lengths: f64,
+    staggered: f64,
+    layered: bool,
+    score: f64,
+}
+
+/// Measures a regrown mesh against the sample's courses: the output's courses are found
+/// as the sample's are; a region lies in a course when its centroid is within 15 % of the
+/// nearest course's height from that course's centre line.
+fn course_figures(sample: &CourseAnalysis, mesh: &[u8]) -> CourseFigures {
+    let (polys, size) = mesh_polygons(mesh);
+    let eps = 1e-6;
+    let border: Vec<bool> = polys
+        .iter()
+        .map(|p| p.iter().any(|v| v[0] <= eps || v[1] <= eps || v[0] >= size[0] - eps || v[1] >= size[1] - eps))
+        .collect();
+    let interior: Vec<bool> = border.iter().map(|b| !b).collect();
+    let out = detect_courses(&polys, &border, &interior, size);
+    let lines: Vec<(f64, f64)> = out.courses.iter().map(|c| (0.5 * (c.top + c.bottom), c.bottom - c.top)).collect();
+    let in_course = polys
+        .iter()
+        .filter(|p| {
+            let y = centroid(p)[1];
+            lines
+                .iter()
+                .min_by(|a, b| (a.0 - y).abs().total_cmp(&(b.0 - y).abs()))
+                .is_some_and(|&(c, h)| (y - c).abs() <= 0.15 * h)
+        })
+        .count();
+
+    let joints: Vec<Vec<f64>> = out.courses.iter().map(|c| c.joints.clone()).collect();
+    let mean_length = out.lengths.iter().sum::<f64>() / out.lengths.len().max(1) as f64;
+    CourseFigures {
+        regions: polys.len(),
+        in_course: in_course as f64 / polys.len() as f64,
+        ks_heights: ks(&out.heights, &sample.heights),
+        ks_lengths: ks(&out.lengths, &sample.lengths),
+        staggered: staggered_share(&joints, mean_length).unwrap_or(0.0),
+        layered: out.layered,
+        score: out.score,
+    }
+}
+
+fn coursed_scene(sample_file: &str, w: usize, h: usize, extra: &str) -> String {
+    format!(
+        "scene {{ seed = 4  size = {w} x {h} }}\nsample s {{ structure = \"{sample_file}\" }}\nsurface t {{ plane = {w} x {h} }}\nstructure st {{\n  from = s\n  on = t\n{extra}}}\noutput \"mesh.json\" {{ from = st }}\n"
+    )
+}
+
+fn assert_keeps_courses(name: &str, f: &CourseFigures) {
+    eprintln!(
+        "{name}: {} regions, {:.1} % in a course, KS heights {:.3}, KS lengths {:.3}, {:.1} % of head joints staggered (regrown detector score {:.2})",
+        f.regions,
+        100.0 * f.in_course,
+        f.ks_heights,
+        f.ks_lengths,
+        100.0 * f.staggered,
+        f.score
+    );
+    assert!(f.layered, "{name}: the regrown wall is not layered (score {})", f.score);
+    assert!(f.in_course >= 0.9, "{name}: {} in a course", f.in_course);
+    assert!(f.ks_heights < 0.2, "{name}: KS of course heights {}", f.ks_heights);
+    assert!(f.ks_lengths < 0.2, "{name}: KS of brick lengths {}", f.ks_lengths);
+    assert!(f.staggered >= 0.9, "{name}: {} of head joints staggered", f.staggered);
+}
+
+fn brick_bond_json() -> (String, SampleStructure) {
+    let (st, _) = standins::brick_bond(&standins::BrickBondParams::default(), 1);
+    let text = tessera::synth::structure::format::to_json_sized(&st.subdivision, [st.width as f64, st.height as f64]);
+    let sample = analyse_sample(&text, &StatsConfig::default()).expect("analyses");
+    (text, sample)
+}
+
+#[test]
+fn issue13_a_brick_bond_stand_in_regrows_in_courses() {
+    let (text, sample) = brick_bond_json();
+    eprintln!(
+        "brick_bond sample: detector score {:.3}, {} courses, layered {}",
+        sample.courses.score,
+        sample.courses.courses.len(),
+        sample.courses.layered
+    );
+    assert!(sample.courses.layered, "score {}", sample.courses.score);
+    let p = Project::new(&[("scene.tess", &coursed_scene("wall.json", 960, 640, ""))]);
+    p.write("wall.json", &text);
+    for seed in ["4", "5", "6", "7"] {
+        p.tessera(&["-q", "build", "--seed", seed, "scene.tess"]).ok();
+        let f = course_figures(&sample.courses, &p.read("out/scene/mesh.json"));
+        assert_keeps_courses(&format!("brick_bond seed {seed}"), &f);
+    }
+}
+
+/// `samples/library/bricks_painted.png` is a painted *picture* of a brick wall (red bricks
+/// with noise, grey mortar; 1936 colours), not one colour per brick: its label image is made
+/// here (mortar by low saturation, bricks as 4-connected components, mortar pixels given to
+/// the nearest brick).
+fn bricks_painted_labels() -> (Vec<u32>, usize, usize) {
+    let bytes = std::fs::read(common::repo().join("samples/library/bricks_painted.png")).expect("sample");
+    let img = tessera::raster::io::decode(&bytes).expect("png");
+    let (w, h) = (img.width, img.height);
+    let n = w * h;
+    let brick: Vec<bool> = (0..n)
+        .map(|i| {
+            let c = [img.data[i], img.data[n + i], img.data[2 * n + i]];
+            c.iter().cloned().fold(f32::MIN, f32::max) - c.iter().cloned().fold(f32::MAX, f32::min) >= 40.0 / 255.0
+        })
+        .collect();
+    let mut ids = vec![u32::MAX; n];
+    let mut next = 0;
+    let mut queue = std::collections::VecDeque::new();
+    for s in 0..n {
+        if !brick[s] || ids[s] != u32::MAX {
+            continue;
+        }
+        ids[s] = next;
+        let mut stack = vec![s];
+        while let Some(p) = stack.pop() {
+            queue.push_back(p);
+            let (x, y) = (p % w, p / w);
+            let mut near = vec![];
+            if x > 0 {
+                near.push(p - 1);
+            }
+            if x + 1 < w {
+                near.push(p + 1);
+            }
+            if y > 0 {
+                near.push(p - w);
+            }
+            if y + 1 < h {
+                near.push(p + w);
+            }
+            for q in near {
+                if brick[q] && ids[q] == u32::MAX {
+                    ids[q] = next;
+                    stack.push(q);
+                }
+            }
+        }
+        next += 1;
+    }
+    // Mortar to the nearest brick: breadth-first from every brick pixel at once.
+    while let Some(p) = queue.pop_front() {
+        let (x, y) = (p % w, p / w);
+        for (ok, q) in [(x > 0, p.wrapping_sub(1)), (x + 1 < w, p + 1), (y > 0, p.wrapping_sub(w)), (y + 1 < h, p + w)]
+        {
+            if ok && ids[q] == u32::MAX {
+                ids[q] = ids[p];
+                queue.push_back(q);
+            }
+        }
+    }
+    (ids, w, h)
+}
+
+#[test]
+fn issue13_the_painted_brick_wall_regrows_in_courses() {
+    let (ids, w, h) = bricks_painted_labels();
+    let sample = analyse_label_image(&ids, w, h, 1.0, &StatsConfig::default()).expect("analyses");
+    eprintln!(
+        "bricks_painted sample: detector score {:.3}, {} courses, heights {:?}, lengths {:?}, stagger {:?}",
+        sample.courses.score,
+        sample.courses.courses.len(),
+        sample.courses.heights,
+        sample.courses.lengths,
+        sample.courses.stagger
+    );
+    assert!(sample.courses.layered, "score {}", sample.courses.score);
+    let img = tessera::raster::Image::from_fn(w, h, 3, |x, y, c| {
+        let id = ids[y * w + x] + 1;
+        [(id * 37) % 251, (id * 91) % 241, (id * 17) % 239][c] as f32 / 255.0
+    });
+    let p = Project::new(&[("scene.tess", &coursed_scene("bricks.png", 384, 256, ""))]);
+    p.write_bytes("bricks.png", &common::png(&img));
+    for seed in ["4", "5", "6"] {
+        p.tessera(&["-q", "build", "--seed", seed, "scene.tess"]).ok();
+        let f = course_figures(&sample.courses, &p.read("out/scene/mesh.json"));
+        assert_keeps_courses(&format!("bricks_painted seed {seed}"), &f);
+    }
+}
+
+#[test]
+fn issue13_an_irregular_wall_is_not_coursed_and_auto_keeps_it_statistical() {
+    let text = std::fs::read_to_string(common::repo().join("samples/standins/wall_random.json")).expect("stand-in");
+    let sample = analyse_sample(&text, &StatsConfig::default()).expect("analyses");
+    eprintln!("wall_random sample: detector score {:.3}, layered {}", sample.courses.score, sample.courses.layered);
+    assert!(!sample.courses.layered, "score {}", sample.courses.score);
+    let extra = "  lloyd { iterations = 5 }\n";
+    let auto = Project::new(&[("scene.tess", &coursed_scene("wall.json", 192, 128, extra))]);
+    let stat = Project::new(&[(
+        "scene.tess",
+        &coursed_scene("wall.json", 192, 128, &format!("{extra}  layout = statistical\n")),
+    )]);
+    for p in [&auto, &stat] {
+        p.write("wall.json", &text);
+        p.tessera(&["-q", "build", "scene.tess"]).ok();
+    }
+    assert_eq!(auto.read("out/scene/mesh.json"), stat.read("out/scene/mesh.json"));
+
+    // Forcing courses on it is an error at the property.
+    let forced = Project::new(&[("scene.tess", &coursed_scene("wall.json", 192, 128, "  layout = courses\n"))]);
+    forced.write("wall.json", &text);
+    let run = forced.tessera(&["build", "scene.tess"]);
+    run.failed();
+    let err = run.stderr();
+    assert!(err.contains("the sample has no courses") && err.contains("layout = courses"), "{err}");
+}
+
+#[test]
+fn issue13_statistical_layout_keeps_the_cobbles_path_on_bricks() {
+    // `layout = statistical` on a layered sample: Lloyd runs (not the laid courses).
+    let (text, _) = brick_bond_json();
+    let scene = |layout: &str| {
+        coursed_scene("wall.json", 240, 160, &format!("  lloyd {{ iterations = 3 }}\n  layout = {layout}\n"))
+    };
+    let a = Project::new(&[("scene.tess", &scene("statistical"))]);
+    let b = Project::new(&[("scene.tess", &scene("courses"))]);
+    for p in [&a, &b] {
+        p.write("wall.json", &text);
+        p.tessera(&["-q", "build", "scene.tess"]).ok();
+    }
+    assert_ne!(a.read("out/scene/mesh.json"), b.read("out/scene/mesh.json"));
+}
+
+#[test]
+fn issue13_courses_respect_the_facade_openings_and_thread_counts() {
+    let (text, sample) = brick_bond_json();
+    let scene = r#"
+scene { seed = 2  size = 480 x 320 }
+sample s { structure = "wall.json" }
+map holes { from = image("facade.png") }
+surface t {
+  plane = 480 x 320
+  occupancy = holes
+}
+structure st {
+  from = s
+  on = t
+}
+output "mesh.json" { from = st }
+output "ids.png" {
+  from = st
+  view = labels16
+  format = png16
+}
+"#;
+    let occ = standins::facade_occupancy(480, 320);
+    let img = tessera::raster::Image::from_fn(480, 320, 1, |x, y, _| occ[y * 480 + x]);
+    let a = Project::new(&[("scene.tess", scene)]);
+    let b = Project::new(&[("scene.tess", scene)]);
+    for p in [&a, &b] {
+        p.write("wall.json", &text);
+        p.write_bytes("facade.png", &common::png(&img));
+    }
+    a.tessera(&["-j", "1", "build", "scene.tess"]).ok();
+    b.tessera(&["-j", "2", "build", "scene.tess"]).ok();
+    assert_eq!(common::tree(&a.path("out")), common::tree(&b.path("out")));
+    // No region in an opening but along its edge (the polygoniser collapses edges under
+    // `min_edge = 2 px`, so a course line a pixel from an opening's edge moves onto it); the
+    // wall around them still in courses.
+    let ids = tessera::raster::io::decode(&a.read("out/scene/ids.png")).expect("png");
+    let (mut labelled_in_openings, mut openings) = (0, 0);
+    for (i, &o) in occ.iter().enumerate() {
+        if o < 0.5 {
+            openings += 1;
+            if ids.data[i] < 1.0 {
+                labelled_in_openings += 1;
+            }
+        }
+    }
+    eprintln!("brick_bond on the facade: {labelled_in_openings} of {openings} opening pixels labelled");
+    assert!(labelled_in_openings * 100 < openings, "{labelled_in_openings} of {openings}");
+    let f = course_figures(&sample.courses, &a.read("out/scene/mesh.json"));
+    eprintln!("brick_bond on the facade: {} regions, {:.1} % in a course", f.regions, 100.0 * f.in_course);
+    assert!(f.in_course >= 0.9, "{}", f.in_course);
+}
+
+#[test]
+fn issue13_painted_bricks_with_their_mortar_are_coursed() {
+    // Mortar is one region around every brick; the bricks alone are found in courses.
+    for mortar in [false, true] {
+        let p = Project::new(&[("scene.tess", &coursed_scene("bricks.png", 192, 128, "  layout = courses\n"))]);
+        p.write_bytes("bricks.png", &painted_bricks(mortar));
+        p.tessera(&["-q", "build", "scene.tess"]).ok();
+        let (polys, _) = mesh_polygons(&p.read("out/scene/mesh.json"));
+        assert!(polys.len() > 40, "mortar {mortar}: {} regions", polys.len());
+    }
+}

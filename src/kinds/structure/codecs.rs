@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::super::Encoded;
 use crate::synth::structure::analysis::sample::SampleStructure;
+use crate::synth::structure::generation::courses::CourseLayout;
 use crate::synth::structure::generation::edits;
 use crate::synth::structure::mesh::polygonize::Polygonization;
 use crate::synth::structure::relaxation::lloyd::IterationStats;
@@ -19,6 +20,9 @@ pub struct Generators {
     pub target_count: usize,
     /// Ellipses the occupancy map removed.
     pub dropped: usize,
+    /// The wall of a course-by-course synthesis: Lloyd then only rasterises it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub courses: Option<CourseLayout>,
 }
 
 /// The relaxed generators and their label raster (S2).

@@ -11,6 +11,10 @@
 //!
 //! A density-map edit re-runs S2 and what follows, never the analysis; an output's view or
 //! edge width re-runs only that output.
+//!
+//! A layered sample (the analysis finds courses, `layout = auto | courses`) takes another
+//! path through the same stages: S1 lays courses of bricks, S2 rasterises them instead of
+//! running Lloyd, S4 only associates the bricks with their closest originals.
 
 use super::map::fit;
 use super::{FnStage, Planner};
@@ -18,8 +22,10 @@ use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::{Decl, Diagnostic, Props};
 use crate::raster::{self, Image};
 use crate::synth::rng::Rng;
+use crate::synth::structure::analysis::courses;
 use crate::synth::structure::analysis::sample::{analyse_label_image, analyse_sample, SampleStructure};
 use crate::synth::structure::analysis::stats::{EllipseFit, StatsConfig};
+use crate::synth::structure::generation::courses as generation_courses;
 use crate::synth::structure::generation::edits::{self, Edit, Target};
 use crate::synth::structure::generation::synthesis::{
     self, CenterSource, EmpiricalSampler, ShapeSampling, StatisticalParams,
@@ -171,6 +177,11 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
     let ((w, h), size_at) = p.plane(on);
     p.check_pixels(d, size_at, (w, h), STRUCTURE_BYTES_PER_PIXEL)?;
     let seed = props.get("seed").map(|_| props.int("seed") as u64).unwrap_or_else(|| p.seed(d, "structure"));
+    // The courses' stream: named apart, so laying courses never shifts the statistical one.
+    let courses_seed = match props.get("seed") {
+        Some(_) => crate::synth::rng::derive_seed(props.int("seed") as u64, &d.name, "courses"),
+        None => p.seed(d, "courses"),
+    };
 
     // A1: analysis of the sample's structure.
     let config = StatsConfig {
@@ -192,19 +203,22 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
     let s1_maps: &[MapProp] =
         if centers(props) == spec::Centers::Uniform { &[MapProp::Size, MapProp::Density] } else { &[MapProp::Size] };
     let maps = MapInputs::add(p, props, &mut inputs, s1_maps);
-    let sampling = Sampling { analysis, surface: surface_in, maps, w, h, seed, options: SampleOptions::from(props) };
-    let s1 = FnStage::keyed("structure.sample", 4, sampling, sample_generators);
+    let sampling =
+        Sampling { analysis, surface: surface_in, maps, w, h, seed, courses_seed, options: SampleOptions::from(props) };
+    let s1 = FnStage::keyed("structure.sample", 5, sampling, sample_generators);
     let s1 = p.add(format!("structure {} (sampling)", d.name), s1, inputs, vec![]);
 
     // S2: Lloyd; with edits, S1e applies them to the relaxed generators and Lloyd runs
     // again from there (edits act on the current state, [references: frasson §3.7.1]).
     let mut s2 = plan_lloyd(p, d, s1, surface, w, h, "lloyd");
+    let mut last_generators = s1;
     let edits = convert_edits(props)?;
     if !edits.is_empty() {
         let mut inputs = Inputs::new();
         let editing = Editing { relaxed: inputs.add(s2), surface: inputs.add(surface), edits, w, h };
         let s1e = FnStage::keyed("structure.edits", 2, editing, apply_edits);
         let s1e = p.add(format!("structure {} (edits)", d.name), s1e, inputs, vec![]);
+        last_generators = s1e;
         s2 = plan_lloyd(p, d, s1e, surface, w, h, "lloyd after edits");
     }
 
@@ -236,8 +250,16 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
         ..ShapeParams::default()
     };
     let mut inputs = Inputs::new();
-    let shaping = Shaping { mesh: inputs.add(s3), analysis: inputs.add(a1), scale: props.num("scale"), params, w, h };
-    let s4 = FnStage::keyed("structure.shapes", 3, shaping, optimise_shapes);
+    let shaping = Shaping {
+        mesh: inputs.add(s3),
+        analysis: inputs.add(a1),
+        generators: inputs.add(last_generators),
+        scale: props.num("scale"),
+        params,
+        w,
+        h,
+    };
+    let s4 = FnStage::keyed("structure.shapes", 4, shaping, optimise_shapes);
     let s4 = p.add(format!("structure {} (shapes)", d.name), s4, inputs, vec![]);
 
     p.set_part(d, "lloyd", s2);
@@ -254,7 +276,7 @@ fn plan_analysis(
     path: std::path::PathBuf,
     span: crate::lang::source::Span,
 ) -> Handle<SampleStructure> {
-    p.add(label, FnStage::keyed("structure.analyse", 3, config, analyse), Inputs::new(), vec![(path, span)])
+    p.add(label, FnStage::keyed("structure.analyse", 4, config, analyse), Inputs::new(), vec![(path, span)])
 }
 
 /// A1 with the default settings (border regions left out of the statistics, polygon
@@ -317,7 +339,7 @@ fn apply_edits(cx: &RunCx, s: &Editing) -> Result<Generators, StageError> {
             .map_err(|err| StageError::new(format!("edit {} ({}): {err}", i + 1, edit_name(e))).at_prop("edits"))?;
     }
     let n = g.ellipses.len();
-    Ok(Generators { set: g, target_count: n, dropped: 0 })
+    Ok(Generators { set: g, target_count: n, dropped: 0, courses: None })
 }
 
 /// What S3 works from.
@@ -333,6 +355,8 @@ struct Polygonizing {
 struct Shaping {
     mesh: In<Polygonization>,
     analysis: In<SampleStructure>,
+    /// The generators Lloyd last ran on: laid courses keep their bricks' shapes.
+    generators: In<Generators>,
     scale: f64,
     params: ShapeParams,
     w: usize,
@@ -361,9 +385,10 @@ fn optimise_shapes(cx: &RunCx, s: &Shaping) -> Result<Shaped, StageError> {
             })
             .collect()
     };
-    if sparams.max_iters == 0 {
-        // Stage 2 is off: the mesh stays as it is, but its regions still learn their
-        // closest originals (appearance needs them).
+    if sparams.max_iters == 0 || cx.get(s.generators).courses.is_some() {
+        // Stage 2 is off, or the regions are laid bricks (whose shapes come from the sample
+        // already; moving their vertices would bend the courses): the mesh stays as it is,
+        // but its regions still learn their closest originals (appearance needs them).
         let found = optimize::associate_mesh(&m.mesh, &m.on_occupancy_border, &m.on_domain_border, &originals, sparams);
         return Ok(Shaped {
             mesh: m.mesh.clone(),
@@ -455,6 +480,9 @@ fn centers(props: &Props) -> spec::Centers {
 #[derive(Clone, serde::Serialize)]
 struct SampleOptions {
     statistical: bool,
+    layout: spec::Layout,
+    /// The maps given that laid courses ignore (for the warning).
+    unsteered: Vec<&'static str>,
     scale: f64,
     centers: spec::Centers,
     joint: bool,
@@ -474,6 +502,11 @@ impl SampleOptions {
     fn from(props: &Props) -> Self {
         SampleOptions {
             statistical: spec::MODES.get(props.enumeration("mode")) == spec::Mode::Statistical,
+            layout: spec::LAYOUTS.get(props.enumeration("layout")),
+            unsteered: ["density", "size", "orientation", "metric_map"]
+                .into_iter()
+                .filter(|m| props.reference(m).is_some())
+                .collect(),
             scale: props.num("scale"),
             centers: centers(props),
             joint: spec::SHAPE_SAMPLING.get(props.enumeration("shape_sampling")) == spec::Either::Second,
@@ -502,6 +535,8 @@ struct Sampling {
     w: usize,
     h: usize,
     seed: u64,
+    /// The stream course-by-course synthesis draws from.
+    courses_seed: u64,
     options: SampleOptions,
 }
 
@@ -520,6 +555,55 @@ fn sample_generators(cx: &RunCx, s: &Sampling) -> Result<Generators, StageError>
         size_mode: o.size_mode,
         ..Controls::default()
     };
+    let coursed = &sample.courses;
+    let use_courses = match o.layout {
+        spec::Layout::Statistical => false,
+        spec::Layout::Auto => coursed.layered && o.statistical,
+        spec::Layout::Courses if coursed.layered => true,
+        spec::Layout::Courses => {
+            return Err(StageError::new(format!(
+                "`layout = courses` but the sample has no courses: {:.0} % of its interior regions lie in a row of regions sharing a top and a bottom line ({} such rows), the detector asks {:.0} % in {} rows",
+                coursed.score * 100.0,
+                coursed.courses.len(),
+                courses::LAYERED_SCORE * 100.0,
+                courses::MIN_COURSES
+            ))
+            .at_prop("layout")
+            .with_help("use `layout = auto` (or `statistical`) for an irregular sample; courses are looked for horizontally"));
+        }
+    };
+    if use_courses {
+        if !o.unsteered.is_empty() {
+            let maps: Vec<String> = o.unsteered.iter().map(|m| format!("`{m}`")).collect();
+            cx.warn(format!(
+                "the sample is layered and is laid in courses, which {} do{} not steer (`layout = statistical` keeps Lloyd and the maps)",
+                maps.join(", "),
+                if maps.len() == 1 { "es" } else { "" }
+            ));
+        }
+        let mut rng = Rng::new(s.courses_seed);
+        let mut layout = generation_courses::layout_courses(w, h, coursed, o.scale, &mut rng);
+        let total = layout.bricks.len();
+        if total > max_regions {
+            return Err(StageError::new(format!(
+                "`scale = {}` lays {total} bricks, more than the memory budget holds ({max_regions})",
+                o.scale
+            ))
+            .at_prop("scale"));
+        }
+        let allowed = allowed_from_occupancy(plane.occupancy.plane(0));
+        let dropped = generation_courses::drop_forbidden_bricks(&mut layout, w, &allowed, o.remove);
+        if dropped == total {
+            return Err(StageError::new("no brick fits on the surface: the occupancy map forbids them all")
+                .with_help("lower `scale` or free more of the surface"));
+        }
+        return Ok(Generators {
+            set: edits::Generators::new(layout.ellipses()),
+            target_count: total,
+            dropped,
+            courses: Some(layout),
+        });
+    }
     let mut rng = Rng::new(s.seed);
     let originals: Vec<Ellipse> = sample.originals().into_iter().map(|(_, e)| e).collect();
     if !o.statistical {
@@ -535,7 +619,7 @@ fn sample_generators(cx: &RunCx, s: &Sampling) -> Result<Generators, StageError>
         let moved = synthesis::perturb(&all, o.perturb, 0.0, &mut rng);
         let swapped = synthesis::swap_regions(&moved, (o.swaps * moved.len() as f64).round() as usize, &mut rng);
         let (kept, dropped) = synthesis::drop_forbidden(&swapped, w, h, plane.occupancy.plane(0), o.remove);
-        return Ok(Generators { set: edits::Generators::new(kept), target_count: all.len(), dropped });
+        return Ok(Generators { set: edits::Generators::new(kept), target_count: all.len(), dropped, courses: None });
     }
     let model = &sample.model;
     let params = StatisticalParams {
@@ -592,6 +676,7 @@ fn sample_generators(cx: &RunCx, s: &Sampling) -> Result<Generators, StageError>
         set: edits::Generators { ellipses: synthesized.generators, frozen: synthesized.frozen },
         target_count: synthesized.target_count,
         dropped: synthesized.dropped,
+        courses: None,
     })
 }
 
@@ -691,13 +776,27 @@ fn plan_lloyd(
     );
     let relaxing =
         Relaxing { generators, surface, maps, w, h, lloyd, density, orientation_mode, size_mode: size_mode(props) };
-    let stage = FnStage::keyed("structure.lloyd", 4, relaxing, relax);
+    let stage = FnStage::keyed("structure.lloyd", 5, relaxing, relax);
     p.add(format!("structure {} ({tag})", d.name), stage, inputs, vec![])
 }
 
 fn relax(cx: &RunCx, s: &Relaxing) -> Result<Relaxed, StageError> {
     let g = cx.get(s.generators);
     let plane = cx.get(s.surface);
+    if let Some(layout) = &g.courses {
+        // Laid courses: their bricks are the regions, cut by the occupancy map.
+        let allowed = allowed_from_occupancy(plane.occupancy.plane(0));
+        let (labels, ellipses) = generation_courses::rasterize_courses(layout, s.w, s.h, Some(&allowed));
+        return Ok(Relaxed {
+            frozen: vec![false; ellipses.len()],
+            sized: ellipses.clone(),
+            generators: ellipses,
+            labels,
+            iterations: vec![],
+            converged: true,
+            orphans: vec![],
+        });
+    }
     let m = prepare_maps(cx, s.maps, s.w, s.h)?;
     let report = |done, total| cx.progress(done, total);
     let controls = Controls {

@@ -11,6 +11,15 @@ pub enum Mode {
     Trivial,
 }
 
+/// `layout`: whether a layered sample regrows course by course.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Layout {
+    Auto,
+    Courses,
+    Statistical,
+}
+
 /// `centers`: where generators are placed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -42,6 +51,9 @@ pub enum MetricChoice {
 }
 
 crate::choices!(pub MODES: Mode { "statistical" => Mode::Statistical, "trivial" => Mode::Trivial });
+crate::choices!(pub LAYOUTS: Layout {
+    "auto" => Layout::Auto, "courses" => Layout::Courses, "statistical" => Layout::Statistical
+});
 crate::choices!(pub CENTERS: Centers { "uniform" => Centers::Uniform, "histogram" => Centers::Histogram });
 crate::choices!(
     /// `independent`: axes and angle drawn apart; `joint`: (axes, angle) triples together.
@@ -181,6 +193,12 @@ pub static SPEC: KindSpec = KindSpec {
             Ty::Enum(MODES.names),
             Default::Text("statistical"),
             "`statistical`: sample new ellipses from the statistics; `trivial`: perturb and swap the sample's own regions.",
+        ),
+        p(
+            "layout",
+            Ty::Enum(LAYOUTS.names),
+            Default::Text("auto"),
+            "`courses`: regrow the sample course by course (course heights, brick lengths and head-joint stagger drawn from the sample's; no Lloyd, no shape optimisation; the density, size and orientation maps do not steer it, edits relax the bricks with Lloyd) — an error if the sample has no courses; `statistical`: never, `mode` decides; `auto`: courses when the analysis finds the sample layered and `mode = statistical`.",
         ),
         p("scale", Ty::Number(Unit::Plain, POSITIVE), Default::Text("1"), "Linear size of regions relative to the sample."),
         p(

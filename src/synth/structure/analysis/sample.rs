@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::synth::structure::analysis::courses::{detect_courses, CourseAnalysis};
 use crate::synth::structure::analysis::labels_import::import_labels;
 use crate::synth::structure::analysis::stats::{self, StatModel, StatsConfig};
 use crate::synth::structure::format::{parse_structure_file, StructureFile};
@@ -22,6 +23,9 @@ pub struct SampleStructure {
     /// The cleaned subdivision as a mesh (for views of the sample itself).
     pub mesh: Mesh,
     pub model: StatModel,
+    /// The courses found among the regions, and whether the sample is layered.
+    #[serde(default)]
+    pub courses: CourseAnalysis,
     /// What cleaning changed, in words (pruned dangling edges, duplicates, islands).
     pub warnings: Vec<String>,
 }
@@ -82,11 +86,18 @@ pub fn analyse_subdivision(
         }
         [w.ceil(), h.ceil()]
     });
+    let polygons: Vec<Vec<Point>> = (0..faces.regions.len()).map(|r| faces.polygon(sub, r)).collect();
+    let border: Vec<bool> = faces.regions.iter().map(|r| r.is_border()).collect();
+    let ellipses: Vec<Option<Ellipse>> = analysis.model.regions.iter().map(|r| r.ellipse).collect();
+    let interior: Vec<bool> =
+        (0..polygons.len()).map(|r| !(config.exclude_border_regions && border[r]) && ellipses[r].is_some()).collect();
+    let courses = detect_courses(&polygons, &border, &interior, size);
     Ok(SampleStructure {
         size,
-        polygons: (0..faces.regions.len()).map(|r| faces.polygon(sub, r)).collect(),
-        border: faces.regions.iter().map(|r| r.is_border()).collect(),
-        ellipses: analysis.model.regions.iter().map(|r| r.ellipse).collect(),
+        polygons,
+        border,
+        ellipses,
+        courses,
         mesh: faces.to_mesh(sub),
         warnings: analysis.cleaned.warnings.iter().map(|w| w.to_string()).collect(),
         model: analysis.model,
