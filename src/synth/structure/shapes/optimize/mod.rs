@@ -129,7 +129,7 @@ pub fn associate_mesh(
     params: &ShapeParams,
 ) -> Vec<Option<Association>> {
     let eligible = eligible_regions(mesh, fixed, border, params);
-    associate_regions(&mesh.vertices, &mesh.regions, &eligible, originals, params).associations
+    Associator::new(originals, params).round(&mesh.vertices, &mesh.regions, &eligible).associations
 }
 
 fn eligible_regions(mesh: &Mesh, fixed: &[bool], border: &[bool], params: &ShapeParams) -> Vec<bool> {
@@ -163,8 +163,9 @@ pub fn optimize_shapes_observed(
     let mut log = Vec::new();
     let mut rounds = 0;
     let mut active: Vec<Option<Active>> = Vec::new();
-    let mut reassociate = |st: &State, active: &mut Vec<Option<Active>>| {
-        let round = associate_regions(&st.verts, &st.regions, &eligible, originals, params);
+    let mut associator = Associator::new(originals, params);
+    let mut reassociate = |st: &State, active: &mut Vec<Option<Active>>, associator: &mut Associator| {
+        let round = associator.round(&st.verts, &st.regions, &eligible);
         fallbacks += round.fallbacks;
         failed += round.failed;
         log.extend(round.log);
@@ -182,9 +183,9 @@ pub fn optimize_shapes_observed(
             })
             .collect();
     };
-    reassociate(&st, &mut active);
+    reassociate(&st, &mut active, &mut associator);
     rounds += 1;
-    let mut errors = vec![closest_error(&st.verts, &st.regions, &eligible, originals, params)];
+    let mut errors = vec![associator.error(&st.verts, &st.regions, &eligible)];
     observe(0, &st.verts, &st.regions);
     let mut fixed_out: Vec<bool> = fixed.to_vec();
     let mut border_out: Vec<bool> = border.to_vec();
@@ -203,7 +204,7 @@ pub fn optimize_shapes_observed(
         let mut since = 0;
         for it in 1..=params.max_iters {
             if params.reassociate_every > 0 && since >= params.reassociate_every {
-                reassociate(&st, &mut active);
+                reassociate(&st, &mut active, &mut associator);
                 rounds += 1;
                 since = 0;
             }
@@ -255,7 +256,7 @@ pub fn optimize_shapes_observed(
             }
             iterations = it;
             since += 1;
-            let e = closest_error(&st.verts, &st.regions, &eligible, originals, params);
+            let e = associator.error(&st.verts, &st.regions, &eligible);
             let prev = *errors.last().expect("initial error");
             if e > prev {
                 // The targets no longer lower the error: undo the iteration and recompute
@@ -268,7 +269,7 @@ pub fn optimize_shapes_observed(
                     stop = StopReason::NoDescent;
                     break;
                 }
-                reassociate(&st, &mut active);
+                reassociate(&st, &mut active, &mut associator);
                 rounds += 1;
                 since = 0;
                 continue;
@@ -306,7 +307,7 @@ pub fn optimize_shapes_observed(
     let (out_mesh, vertex_map, fixed_c, border_c) = compact(&st, &merged_into, &dropped, &fixed_out, &border_out);
 
     // The closest shapes of the final mesh.
-    let round = associate_regions(&out_mesh.vertices, &out_mesh.regions, &eligible, originals, params);
+    let round = associator.round(&out_mesh.vertices, &out_mesh.regions, &eligible);
     fallbacks += round.fallbacks;
     failed += round.failed;
     log.extend(round.log);
