@@ -238,7 +238,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
     };
     let mut inputs = Inputs::new();
     let shaping = Shaping { mesh: inputs.add(s3), analysis: inputs.add(a1), scale: props.num("scale"), params, w, h };
-    let s4 = FnStage::keyed("structure.shapes", 3, shaping, optimise_shapes);
+    let s4 = FnStage::keyed("structure.shapes", 4, shaping, optimise_shapes);
     let s4 = p.add(format!("structure {} (shapes)", d.name), s4, inputs, vec![]);
 
     p.set_part(d, "lloyd", s2);

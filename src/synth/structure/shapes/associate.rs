@@ -378,6 +378,9 @@ mod tests {
         }
     }
 
+    /// The area rule and orientation parts of F15, and self-association of jittered, moved and
+    /// rotated copies of the originals (not the digest's trivial-synthesis scenario, which is
+    /// `f15_self_association_under_trivial_synthesis`).
     #[test]
     fn f15_self_association_and_orientation() {
         let s = standins::wall_random(&standins::WallRandomParams::default(), 11);
@@ -424,6 +427,64 @@ mod tests {
             );
             assert!(rate >= 0.9, "self-association {rate} (rotation {allow_rotation})");
             assert_eq!(r.within + r.widened + r.nearest_area, originals.len());
+        }
+    }
+
+    /// F15 on the digest's scenario: the trivial synthesis of F9 (random swaps of the
+    /// sample's own ellipses, then Lloyd), polygonised as the pipeline does, associated
+    /// against the sample's interior regions. The region grown from the ellipse of original
+    /// `j` should pick original `j` in ≥ 90 % of cases.
+    #[test]
+    #[ignore = "F15 under trivial synthesis not met: about 14 % after swaps + Lloyd before issue 13 (the lead's \
+                figure; not re-measured here); Lloyd and the new neighbours reshape every region and the turning \
+                distance prefers other originals of similar area"]
+    fn f15_self_association_under_trivial_synthesis() {
+        use crate::synth::structure::analysis::ellipse::fit_polygon;
+        use crate::synth::structure::generation::synthesis::swap_regions;
+        use crate::synth::structure::mesh::polygonize::{polygonize, PolygonizeParams};
+        use crate::synth::structure::relaxation::controls::Controls;
+        use crate::synth::structure::relaxation::lloyd::{lloyd, LloydParams};
+        let s = standins::wall_random(&standins::WallRandomParams::default(), 11);
+        let (w, h) = (s.width, s.height);
+        let polys = s.polygons();
+        let border = s.border_regions();
+        let ellipses: Vec<_> = polys.iter().map(|p| fit_polygon(p).expect("fit")).collect();
+        let mut interior_index = vec![None; polys.len()];
+        let mut originals = Vec::new();
+        for (j, p) in polys.iter().enumerate() {
+            if !border[j] {
+                interior_index[j] = Some(originals.len());
+                originals.push(p.clone());
+            }
+        }
+        let mut rates = Vec::new();
+        for swaps in [0, polys.len() / 2] {
+            let swapped = swap_regions(&ellipses, swaps, &mut Rng::new(15));
+            // The source of each generator: the original whose (a, b, θ) it carries.
+            let source: Vec<usize> = swapped
+                .iter()
+                .map(|e| ellipses.iter().position(|o| o.a == e.a && o.b == e.b && o.theta == e.theta).expect("source"))
+                .collect();
+            let params = LloydParams { drop_orphans: false, ..LloydParams::default() };
+            let relaxed = lloyd(w, h, &swapped, None, &Controls::default(), &params);
+            let mesh = polygonize(&relaxed.labels, &PolygonizeParams::default());
+            let (mut generated, mut want) = (Vec::new(), Vec::new());
+            for (i, c) in mesh.mesh.regions.iter().enumerate() {
+                if c.iter().any(|&v| mesh.on_domain_border[v]) {
+                    continue;
+                }
+                let Some(k) = interior_index[source[mesh.region_labels[i] as usize]] else { continue };
+                generated.push(c.iter().map(|&v| mesh.mesh.vertices[v]).collect::<Vec<Point>>());
+                want.push(k);
+            }
+            let r = associate(&generated, &originals, &AssociateParams::default());
+            let own = r.associations.iter().zip(&want).filter(|(a, &k)| a.as_ref().is_some_and(|a| a.original == k)).count();
+            let rate = own as f64 / want.len() as f64;
+            eprintln!("F15 trivial synthesis, {swaps} swaps + Lloyd: {own}/{} = {rate:.3}", want.len());
+            rates.push(rate);
+        }
+        for rate in rates {
+            assert!(rate >= 0.9, "self-association {rate}");
         }
     }
 
