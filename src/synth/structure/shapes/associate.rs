@@ -478,7 +478,8 @@ mod tests {
                 want.push(k);
             }
             let r = associate(&generated, &originals, &AssociateParams::default());
-            let own = r.associations.iter().zip(&want).filter(|(a, &k)| a.as_ref().is_some_and(|a| a.original == k)).count();
+            let own =
+                r.associations.iter().zip(&want).filter(|(a, &k)| a.as_ref().is_some_and(|a| a.original == k)).count();
             let rate = own as f64 / want.len() as f64;
             eprintln!("F15 trivial synthesis, {swaps} swaps + Lloyd: {own}/{} = {rate:.3}", want.len());
             rates.push(rate);
