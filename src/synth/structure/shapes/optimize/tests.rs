@@ -135,7 +135,8 @@ fn f16_case(s: &StandIn) {
     // Stage 2 corrects shapes, not sizes: the relative-area distribution is no further from
     // the sample's than stage 1 left it (the area check).
     let (ra0, ra1) = (before.relative_area.ks, after.relative_area.ks);
-    assert!(ra1 <= ra0, "KS relative area {ra0} -> {ra1}");
+    // (1e-9: the same count of differing regions gives KS values that differ by rounding.)
+    assert!(ra1 <= ra0 + 1e-9, "KS relative area {ra0} -> {ra1}");
 }
 
 #[test]
