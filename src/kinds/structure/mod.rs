@@ -259,7 +259,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
         w,
         h,
     };
-    let s4 = FnStage::keyed("structure.shapes", 4, shaping, optimise_shapes);
+    let s4 = FnStage::keyed("structure.shapes", 5, shaping, optimise_shapes);
     let s4 = p.add(format!("structure {} (shapes)", d.name), s4, inputs, vec![]);
 
     p.set_part(d, "lloyd", s2);

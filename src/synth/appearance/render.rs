@@ -131,8 +131,8 @@ pub fn render_with<'a>(
     for (tile, (rgb, cov)) in bands.into_iter().enumerate() {
         let start = tile * TILE * w;
         for (i, (c, a)) in rgb.iter().zip(&cov).enumerate() {
-            for ch in 0..3 {
-                color.data[ch * plane + start + i] = c[ch];
+            for (ch, &value) in c.iter().enumerate() {
+                color.data[ch * plane + start + i] = value;
             }
             coverage.data[start + i] = *a;
         }
@@ -162,13 +162,21 @@ fn affine(v: [[f64; 2]; 3], uv: [[f64; 2]; 3]) -> Option<[[f64; 3]; 2]> {
 fn sample(img: &Image, u: f64, v: f64) -> [f32; 4] {
     let x = u - 0.5;
     let y = v - 0.5;
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
+    let floor = |z: f64| {
+        let i = z as isize;
+        if (i as f64) > z {
+            i - 1
+        } else {
+            i
+        }
+    };
+    let (x0, y0) = (floor(x), floor(y));
+    let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
     let (wm, hm) = (img.width as isize - 1, img.height as isize - 1);
-    let xa = (x0 as isize).clamp(0, wm) as usize;
-    let xb = (x0 as isize + 1).clamp(0, wm) as usize;
-    let ya = (y0 as isize).clamp(0, hm) as usize;
-    let yb = (y0 as isize + 1).clamp(0, hm) as usize;
+    let xa = x0.clamp(0, wm) as usize;
+    let xb = (x0 + 1).clamp(0, wm) as usize;
+    let ya = y0.clamp(0, hm) as usize;
+    let yb = (y0 + 1).clamp(0, hm) as usize;
     let plane = img.width * img.height;
     let (i00, i10, i01, i11) = (ya * img.width + xa, ya * img.width + xb, yb * img.width + xa, yb * img.width + xb);
     let (w00, w10, w01, w11) = ((1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy);
@@ -216,20 +224,23 @@ fn render_band(
     let r0 = tile * TILE;
     let r1 = (r0 + TILE).min(h);
     let n = (r1 - r0) * w;
-    let mut trans = vec![[1.0f32; 16]; n];
+    // Transmittance: one value while a pixel's samples agree, sixteen once an edge splits it.
+    let mut uniform = vec![1.0f32; n];
+    let mut slot = vec![u32::MAX; n];
+    let mut split: Vec<[f32; 16]> = Vec::new();
     let mut acc = vec![[0.0f32; 3]; n];
     let mut opaque = vec![false; n];
     for &ti in bin.iter().rev() {
         let t = &tris[ti as usize];
         let img = images[t.tex];
-        // Per edge: a·OFF[i] and b·OFF[j], and the full/empty margin.
-        let mut ax = [[0.0f64; 4]; 3];
-        let mut by = [[0.0f64; 4]; 3];
+        // Per edge: the sixteen sample offsets `a·dx + b·dy` and the full/empty margin.
+        let mut offs = [[0.0f64; 16]; 3];
         let mut margin = [0.0f64; 3];
         for k in 0..3 {
-            for i in 0..4 {
-                ax[k][i] = t.edges[k][0] * OFF[i];
-                by[k][i] = t.edges[k][1] * OFF[i];
+            for j in 0..4 {
+                for i in 0..4 {
+                    offs[k][j * 4 + i] = t.edges[k][0] * OFF[i] + t.edges[k][1] * OFF[j];
+                }
             }
             margin[k] = 0.375 * (t.edges[k][0].abs() + t.edges[k][1].abs());
         }
@@ -237,64 +248,89 @@ fn render_band(
             let Some([x0, x1]) = span(t, y as f64, w) else { continue };
             let cy = y as f64 + 0.5;
             let row = (y - r0) * w;
+            let base = [
+                t.edges[0][1] * cy + t.edges[0][2],
+                t.edges[1][1] * cy + t.edges[1][2],
+                t.edges[2][1] * cy + t.edges[2][2],
+            ];
             for x in x0..x1 {
                 let p = row + x;
                 if opaque[p] {
                     continue;
                 }
                 let cx = x as f64 + 0.5;
-                let ec = [0, 1, 2].map(|k| t.edges[k][0] * cx + t.edges[k][1] * cy + t.edges[k][2]);
-                if (0..3).any(|k| ec[k] < -margin[k]) {
+                let ec = [t.edges[0][0] * cx + base[0], t.edges[1][0] * cx + base[1], t.edges[2][0] * cx + base[2]];
+                if ec[0] < -margin[0] || ec[1] < -margin[1] || ec[2] < -margin[2] {
                     continue;
                 }
-                let mask: u16 = if (0..3).all(|k| ec[k] > margin[k]) {
+                let mask: u32 = if ec[0] > margin[0] && ec[1] > margin[1] && ec[2] > margin[2] {
                     0xFFFF
                 } else {
-                    let mut m = 0u16;
-                    for j in 0..4 {
-                        for i in 0..4 {
-                            let inside = (0..3).all(|k| {
-                                let e = ec[k] + ax[k][i] + by[k][j];
-                                e > 0.0 || (e == 0.0 && t.tie[k])
-                            });
-                            if inside {
-                                m |= 1 << (j * 4 + i);
+                    let mut m = 0xFFFFu32;
+                    for k in 0..3 {
+                        let mut mk = 0u32;
+                        if t.tie[k] {
+                            for (s, o) in offs[k].iter().enumerate() {
+                                mk |= ((ec[k] + o >= 0.0) as u32) << s;
+                            }
+                        } else {
+                            for (s, o) in offs[k].iter().enumerate() {
+                                mk |= ((ec[k] + o > 0.0) as u32) << s;
                             }
                         }
+                        m &= mk;
                     }
                     m
                 };
                 if mask == 0 {
                     continue;
                 }
-                let tr = &mut trans[p];
-                let mut tsum = 0.0f32;
-                for (s, v) in tr.iter().enumerate() {
-                    if mask & (1 << s) != 0 {
-                        tsum += *v;
+                let u = t.uv[0][0] * cx + t.uv[0][1] * cy + t.uv[0][2];
+                let v = t.uv[1][0] * cx + t.uv[1][1] * cy + t.uv[1][2];
+                if slot[p] == u32::MAX && mask == 0xFFFF {
+                    let tp = uniform[p];
+                    let c = sample(img, u, v);
+                    let a = c[3].clamp(0.0, 1.0);
+                    if a <= 0.0 {
+                        continue;
                     }
+                    let k = a * tp;
+                    acc[p][0] += k * c[0];
+                    acc[p][1] += k * c[1];
+                    acc[p][2] += k * c[2];
+                    uniform[p] = tp * (1.0 - a);
+                    if uniform[p] <= 0.0 {
+                        opaque[p] = true;
+                    }
+                    continue;
+                }
+                if slot[p] == u32::MAX {
+                    slot[p] = split.len() as u32;
+                    split.push([uniform[p]; 16]);
+                }
+                let tr = &mut split[slot[p] as usize];
+                let mut bits = [0.0f32; 16];
+                let mut tsum = 0.0f32;
+                for s in 0..16 {
+                    bits[s] = ((mask >> s) & 1) as f32;
+                    tsum += tr[s] * bits[s];
                 }
                 if tsum <= 0.0 {
                     continue;
                 }
-                let u = t.uv[0][0] * cx + t.uv[0][1] * cy + t.uv[0][2];
-                let v = t.uv[1][0] * cx + t.uv[1][1] * cy + t.uv[1][2];
                 let c = sample(img, u, v);
                 let a = c[3].clamp(0.0, 1.0);
                 if a <= 0.0 {
                     continue;
                 }
                 let k = a * tsum * (1.0 / 16.0);
-                for ch in 0..3 {
-                    acc[p][ch] += k * c[ch];
-                }
-                let keep = 1.0 - a;
+                acc[p][0] += k * c[0];
+                acc[p][1] += k * c[1];
+                acc[p][2] += k * c[2];
                 let mut left = 0.0f32;
-                for (s, v) in tr.iter_mut().enumerate() {
-                    if mask & (1 << s) != 0 {
-                        *v *= keep;
-                    }
-                    left += *v;
+                for s in 0..16 {
+                    tr[s] *= 1.0 - a * bits[s];
+                    left += tr[s];
                 }
                 if left <= 0.0 {
                     opaque[p] = true;
@@ -305,8 +341,9 @@ fn render_band(
     let mut rgb = Vec::with_capacity(n);
     let mut cov = Vec::with_capacity(n);
     for p in 0..n {
-        let tm = trans[p].iter().sum::<f32>() * (1.0 / 16.0);
-        rgb.push([0, 1, 2].map(|c| acc[p][c] + tm * background[c]));
+        let tm =
+            if slot[p] == u32::MAX { uniform[p] } else { split[slot[p] as usize].iter().sum::<f32>() * (1.0 / 16.0) };
+        rgb.push([acc[p][0] + tm * background[0], acc[p][1] + tm * background[1], acc[p][2] + tm * background[2]]);
         cov.push(1.0 - tm);
     }
     (rgb, cov)

@@ -50,14 +50,14 @@ pub fn choose_clusters(
     };
     let mut out: Vec<Option<usize>> = vec![None; n];
     let mut search = Vec::new();
-    for r in 0..n {
+    for (r, slot) in out.iter_mut().enumerate() {
         let previous = hints.previous_clusters.and_then(|p| p.get(r).copied().flatten());
-        out[r] = match params.cluster_choice {
+        *slot = match params.cluster_choice {
             ClusterChoice::Random => Some(random(r)),
             ClusterChoice::Sticky if previous.is_some() => previous,
             _ => known(r),
         };
-        if out[r].is_none() {
+        if slot.is_none() {
             search.push(r);
         }
     }

@@ -99,17 +99,20 @@ pub struct Hit {
     pub distance: f64,
 }
 
+/// One valency's variants `(entry, shift, mirror)` and their tuples, flattened.
+type Table = (Vec<(usize, usize, bool)>, Vec<f64>);
+
 /// Exact nearest-neighbour search over the atlas's angle tuples with every cyclic shift and
 /// mirror, one flat table per valency (duplicate tuples of one star stored once).
 #[derive(Clone, Debug, Default)]
 pub struct JunctionIndex {
     /// valency → (variants `(entry, shift, mirror)`, their tuples flattened).
-    tables: BTreeMap<usize, (Vec<(usize, usize, bool)>, Vec<f64>)>,
+    tables: BTreeMap<usize, Table>,
 }
 
 impl JunctionIndex {
     pub fn new(atlas: &JunctionAtlas) -> Self {
-        let mut tables: BTreeMap<usize, (Vec<(usize, usize, bool)>, Vec<f64>)> = BTreeMap::new();
+        let mut tables: BTreeMap<usize, Table> = BTreeMap::new();
         for (i, e) in atlas.entries.iter().enumerate() {
             let v = e.angles.len();
             if v == 0 || e.star.len() != 3 * v || e.directions.len() != v {

@@ -156,8 +156,8 @@ pub fn match_contours(
         let w = s.widths[j];
         extent(&junctions.image, s.uvs[3 * j], s.uvs[3 * j + 1], -w, w, thr)
     };
-    for si in 0..strips.len() {
-        let Some(strip) = strips[si].as_ref() else { continue };
+    for slot in strips.iter_mut() {
+        let Some(strip) = slot.as_ref() else { continue };
         let (e, ends) = (strip.edge, strip.ends);
         let w = strip.half_width;
         let ja = branch_of(stars, ends[0], e);
@@ -212,7 +212,7 @@ pub fn match_contours(
                     });
                 }
                 report.short_edges.push(e);
-                strips[si].as_mut().expect("strip").polygon = None;
+                slot.as_mut().expect("strip").polygon = None;
                 continue;
             }
         }
@@ -279,7 +279,7 @@ pub fn match_contours(
             }
             report.restored_strips.push(e);
         }
-        strips[si].as_mut().expect("strip").polygon = Some(poly);
+        slot.as_mut().expect("strip").polygon = Some(poly);
     }
     // Intermediate vertices follow their neighbours (similarity rule); invalid stars restored.
     for (vi, star) in stars.iter_mut().enumerate() {

@@ -74,8 +74,8 @@ pub fn interstice_atlas(
             let a = band.alpha(o);
             for i in x0..x0 + sw {
                 let c = if a > 0.0 { mortar } else { stone };
-                for ch in 0..3 {
-                    image.set(i, j, ch, c[ch]);
+                for (ch, &value) in c.iter().enumerate() {
+                    image.set(i, j, ch, value);
                 }
                 image.set(i, j, 3, a);
             }
@@ -130,8 +130,8 @@ pub fn junction_atlas(
                     }
                 }
                 let c = if al > 0.0 { colour } else { stone };
-                for ch in 0..3 {
-                    image.set(x, y, ch, c[ch]);
+                for (ch, &value) in c.iter().enumerate() {
+                    image.set(x, y, ch, value);
                 }
                 image.set(x, y, 3, al);
             }

@@ -15,11 +15,22 @@
 //! an area-sorted list. Its cost per generated region is therefore bounded whatever the
 //! sample's region count; samples with fewer candidates than that get the exact search.
 //!
+//! The candidates are visited in increasing order of a lower bound of their distance (the
+//! spectral bound of [`distance_lower_bound_sq`]), a hinted original (the previous
+//! association of a similar polygon) first, and each turning distance is computed with the
+//! best distance found so far as a bound ([`best_match_bounded`]): a candidate certain to be
+//! worse is abandoned early, and the search ends at the first candidate whose lower bound
+//! exceeds the best distance. None of this changes the result: it is the smallest distance,
+//! then the lowest index, as the exhaustive search gives, bit for bit.
+//!
 //! Generated regions are processed in parallel; each result depends only on its own inputs,
 //! so the output does not depend on the thread count.
 
 use crate::synth::structure::analysis::ellipse::polygon_moments;
-use crate::synth::structure::shapes::turning::{best_match, rotate_about, turning_function, TurningFunction};
+use crate::synth::structure::shapes::turning::{
+    best_match, best_match_bounded, bound_exceeds, distance_lower_bound_sq, rotate_about, turning_function,
+    TurningFunction,
+};
 use crate::synth::structure::types::Point;
 use rayon::prelude::*;
 
@@ -92,15 +103,17 @@ struct Shape {
     centroid: Point,
 }
 
-/// The originals' shapes, and the distinct usable ones sorted by `(area, index)`.
-struct Catalogue {
+/// The originals' polygons and shapes (turning functions, areas, centroids), and the
+/// distinct usable ones sorted by `(area, index)`: built once for many associations.
+pub struct OriginalShapes {
+    polygons: Vec<Vec<Point>>,
     shapes: Vec<Option<Shape>>,
     by_area: Vec<usize>,
     areas: Vec<f64>,
 }
 
-impl Catalogue {
-    fn new(originals: &[Vec<Point>]) -> Self {
+impl OriginalShapes {
+    pub fn new(originals: &[Vec<Point>]) -> Self {
         let shapes: Vec<Option<Shape>> = originals.par_iter().map(|p| shape(p)).collect();
         let mut seen = std::collections::HashSet::new();
         let mut by_area: Vec<usize> = (0..shapes.len())
@@ -116,7 +129,7 @@ impl Catalogue {
         let area = |i: usize| shapes[i].as_ref().expect("usable").area;
         by_area.sort_by(|&a, &b| area(a).total_cmp(&area(b)).then(a.cmp(&b)));
         let areas = by_area.iter().map(|&i| area(i)).collect();
-        Catalogue { shapes, by_area, areas }
+        OriginalShapes { polygons: originals.to_vec(), shapes, by_area, areas }
     }
 
     /// Originals with `|area − a| ≤ c`, at most [`MAX_CANDIDATES`] of them, nearest in area first.
@@ -164,12 +177,9 @@ fn shape(poly: &[Point]) -> Option<Shape> {
 
 /// Associates every generated polygon with its closest original polygon.
 pub fn associate(generated: &[Vec<Point>], originals: &[Vec<Point>], params: &AssociateParams) -> AssociationReport {
-    let catalogue = Catalogue::new(originals);
-    let results: Vec<(Option<Association>, Option<String>)> = generated
-        .par_iter()
-        .enumerate()
-        .map(|(g, poly)| associate_one(g, poly, originals, &catalogue, params))
-        .collect();
+    let shapes = OriginalShapes::new(originals);
+    let results: Vec<(Option<Association>, Option<String>)> =
+        generated.par_iter().enumerate().map(|(g, poly)| associate_one(g, poly, &shapes, params, None)).collect();
     let mut report = AssociationReport {
         associations: Vec::new(),
         within: 0,
@@ -191,23 +201,47 @@ pub fn associate(generated: &[Vec<Point>], originals: &[Vec<Point>], params: &As
     report
 }
 
-fn associate_one(
+/// The association of one generated polygon (`g` names it in the message, if any): what
+/// [`associate`] gives for it. `hint`, an original expected to match well (the one a
+/// previous association of a similar polygon chose), is tried first; only the speed depends
+/// on it.
+pub fn associate_one(
     g: usize,
     poly: &[Point],
-    originals: &[Vec<Point>],
-    catalogue: &Catalogue,
+    catalogue: &OriginalShapes,
     params: &AssociateParams,
+    hint: Option<usize>,
 ) -> (Option<Association>, Option<String>) {
     let orig = &catalogue.shapes;
     let Some(gen) = shape(poly) else {
         return (None, Some(format!("region {g}: degenerate polygon, not associated")));
     };
     let pct = |t: f64| format!("±{:.0} %", t * 100.0);
+    let hint = hint.filter(|&h| orig.get(h).is_some_and(|o| o.is_some()));
     let best_within = |tol: f64| -> Option<(usize, f64, f64, f64)> {
+        // Candidates by increasing lower bound of their distance, the hinted original first:
+        // the first distances found bound the others'.
+        let mut cands: Vec<(f64, usize)> = catalogue
+            .within(gen.area, tol * gen.area * (1.0 + 1e-12))
+            .into_iter()
+            .map(|i| {
+                let o = orig[i].as_ref().expect("catalogued originals have a shape");
+                let lb = if hint == Some(i) { f64::NEG_INFINITY } else { distance_lower_bound_sq(&o.tf, &gen.tf) };
+                (lb, i)
+            })
+            .collect();
+        cands.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         let mut best: Option<(usize, f64, f64, f64)> = None;
-        for i in catalogue.within(gen.area, tol * gen.area * (1.0 + 1e-12)) {
+        for (lb, i) in cands {
             let o = orig[i].as_ref().expect("catalogued originals have a shape");
-            let m = best_match(&o.tf, &gen.tf, params.allow_rotation);
+            let bound = best.map_or(f64::INFINITY, |b| b.1);
+            if bound_exceeds(lb, bound) {
+                // Sorted by their bounds: no later candidate can do better either.
+                break;
+            }
+            let Some(m) = best_match_bounded(&o.tf, &gen.tf, params.allow_rotation, bound) else {
+                continue;
+            };
             // Smallest distance, then lowest index: the order candidates come in does not matter.
             if best.is_none_or(|b| m.distance < b.1 || (m.distance == b.1 && i < b.0)) {
                 best = Some((i, m.distance, m.shift, m.rotation));
@@ -258,7 +292,7 @@ fn associate_one(
     let o = orig[i].as_ref().expect("chosen original has a shape");
     let rotation = if params.allow_rotation { rotation } else { 0.0 };
     let (dx, dy) = (gen.centroid[0] - o.centroid[0], gen.centroid[1] - o.centroid[1]);
-    let moved: Vec<Point> = originals[i].iter().map(|p| [p[0] + dx, p[1] + dy]).collect();
+    let moved: Vec<Point> = catalogue.polygons[i].iter().map(|p| [p[0] + dx, p[1] + dy]).collect();
     let placed = if rotation != 0.0 { rotate_about(&moved, gen.centroid, rotation) } else { moved };
     let vertex_targets = poly
         .iter()
@@ -344,6 +378,9 @@ mod tests {
         }
     }
 
+    /// The area rule and orientation parts of F15, and self-association of jittered, moved and
+    /// rotated copies of the originals (not the digest's trivial-synthesis scenario, which is
+    /// `f15_self_association_under_trivial_synthesis`).
     #[test]
     fn f15_self_association_and_orientation() {
         let s = standins::wall_random(&standins::WallRandomParams::default(), 11);
@@ -390,6 +427,65 @@ mod tests {
             );
             assert!(rate >= 0.9, "self-association {rate} (rotation {allow_rotation})");
             assert_eq!(r.within + r.widened + r.nearest_area, originals.len());
+        }
+    }
+
+    /// F15 on the digest's scenario: the trivial synthesis of F9 (random swaps of the
+    /// sample's own ellipses, then Lloyd), polygonised as the pipeline does, associated
+    /// against the sample's interior regions. The region grown from the ellipse of original
+    /// `j` should pick original `j` in ≥ 90 % of cases.
+    #[test]
+    #[ignore = "F15 under trivial synthesis not met: wall_random seed 11 measures 31/65 = 0.477 with Lloyd alone \
+                and 5/52 = 0.096 after 50 swaps + Lloyd; Lloyd and the new neighbours reshape every region and the \
+                turning distance prefers other originals of similar area"]
+    fn f15_self_association_under_trivial_synthesis() {
+        use crate::synth::structure::analysis::ellipse::fit_polygon;
+        use crate::synth::structure::generation::synthesis::swap_regions;
+        use crate::synth::structure::mesh::polygonize::{polygonize, PolygonizeParams};
+        use crate::synth::structure::relaxation::controls::Controls;
+        use crate::synth::structure::relaxation::lloyd::{lloyd, LloydParams};
+        let s = standins::wall_random(&standins::WallRandomParams::default(), 11);
+        let (w, h) = (s.width, s.height);
+        let polys = s.polygons();
+        let border = s.border_regions();
+        let ellipses: Vec<_> = polys.iter().map(|p| fit_polygon(p).expect("fit")).collect();
+        let mut interior_index = vec![None; polys.len()];
+        let mut originals = Vec::new();
+        for (j, p) in polys.iter().enumerate() {
+            if !border[j] {
+                interior_index[j] = Some(originals.len());
+                originals.push(p.clone());
+            }
+        }
+        let mut rates = Vec::new();
+        for swaps in [0, polys.len() / 2] {
+            let swapped = swap_regions(&ellipses, swaps, &mut Rng::new(15));
+            // The source of each generator: the original whose (a, b, θ) it carries.
+            let source: Vec<usize> = swapped
+                .iter()
+                .map(|e| ellipses.iter().position(|o| o.a == e.a && o.b == e.b && o.theta == e.theta).expect("source"))
+                .collect();
+            let params = LloydParams { drop_orphans: false, ..LloydParams::default() };
+            let relaxed = lloyd(w, h, &swapped, None, &Controls::default(), &params);
+            let mesh = polygonize(&relaxed.labels, &PolygonizeParams::default());
+            let (mut generated, mut want) = (Vec::new(), Vec::new());
+            for (i, c) in mesh.mesh.regions.iter().enumerate() {
+                if c.iter().any(|&v| mesh.on_domain_border[v]) {
+                    continue;
+                }
+                let Some(k) = interior_index[source[mesh.region_labels[i] as usize]] else { continue };
+                generated.push(c.iter().map(|&v| mesh.mesh.vertices[v]).collect::<Vec<Point>>());
+                want.push(k);
+            }
+            let r = associate(&generated, &originals, &AssociateParams::default());
+            let own =
+                r.associations.iter().zip(&want).filter(|(a, &k)| a.as_ref().is_some_and(|a| a.original == k)).count();
+            let rate = own as f64 / want.len() as f64;
+            eprintln!("F15 trivial synthesis, {swaps} swaps + Lloyd: {own}/{} = {rate:.3}", want.len());
+            rates.push(rate);
+        }
+        for rate in rates {
+            assert!(rate >= 0.9, "self-association {rate}");
         }
     }
 

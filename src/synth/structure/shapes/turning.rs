@@ -35,6 +35,106 @@ pub struct TurningFunction {
     pub angles: Vec<f64>,
     /// `Θ(s + 1) − Θ(s)`.
     pub total: f64,
+    /// `Â_k` for `k = 1..=`[`HARMONICS`] (real, imaginary): the Fourier coefficients of the
+    /// periodic part `Θ(s) − total·s`, which are `(1 / 2πik) Σ_j τ_j e^{−2πik s_j}` with `τ_j`
+    /// the turn at breakpoint `s_j` (the turn at 0 included). They give lower bounds of the
+    /// distance that prune the search ([`best_match_bounded`]).
+    pub spectrum: Vec<[f64; 2]>,
+    /// `Â_k e^{2πik s_i}` for every breakpoint `s_i` (row `i`, [`HARMONICS`] entries): the
+    /// spectrum of `Θ(· + s_i)`, so that the spectral bound of the critical event
+    /// `t = a_i − b_j` is the squared distance between row `i` of `A` and row `j` of `B`.
+    pub phased: Vec<[f64; 2]>,
+}
+
+/// Fourier harmonics kept in [`TurningFunction::spectrum`].
+pub const HARMONICS: usize = 24;
+
+/// The spectrum of a turning function (see [`TurningFunction::spectrum`]).
+fn spectrum(starts: &[f64], angles: &[f64], total: f64) -> Vec<[f64; 2]> {
+    let m = starts.len();
+    let mut acc = vec![[0.0f64; 2]; HARMONICS];
+    for j in 0..m {
+        let tau = if j == 0 { total - (angles[m - 1] - angles[0]) } else { angles[j] - angles[j - 1] };
+        // e^{−2πi s_j}, raised to the power k by repeated products.
+        let (sn, cs) = (-TAU * starts[j]).sin_cos();
+        let mut z = [1.0f64, 0.0];
+        for a in acc.iter_mut() {
+            z = [z[0] * cs - z[1] * sn, z[0] * sn + z[1] * cs];
+            a[0] += tau * z[0];
+            a[1] += tau * z[1];
+        }
+    }
+    // Divide by 2πik: (x + iy) / (iω) = (y − ix) / ω.
+    acc.iter()
+        .enumerate()
+        .map(|(k, a)| {
+            let w = TAU * (k + 1) as f64;
+            [a[1] / w, -a[0] / w]
+        })
+        .collect()
+}
+
+/// The rows of [`TurningFunction::phased`].
+fn phased(starts: &[f64], spectrum: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let mut out = Vec::with_capacity(starts.len() * spectrum.len());
+    for &s in starts {
+        let (sn, cs) = (TAU * s).sin_cos();
+        let mut z = [1.0f64, 0.0];
+        for x in spectrum {
+            z = [z[0] * cs - z[1] * sn, z[0] * sn + z[1] * cs];
+            out.push([x[0] * z[0] - x[1] * z[1], x[0] * z[1] + x[1] * z[0]]);
+        }
+    }
+    out
+}
+
+/// `2 Σ_k |Â_k e^{2πikt} − B̂_k|²` for `t = a_i − b_j`, from rows `i` and `j` of the phased
+/// spectra (both sides multiplied by `e^{2πik b_j}`, which keeps the moduli): a lower bound
+/// of `d(t)²` (Parseval's identity on the periodic parts, truncated to the kept harmonics;
+/// the rotation removes the mean).
+fn spectral_bound_at(pa: &[[f64; 2]], pb: &[[f64; 2]]) -> f64 {
+    let mut sum = 0.0;
+    for (x, y) in pa.iter().zip(pb) {
+        let (re, im) = (x[0] - y[0], x[1] - y[1]);
+        sum += re * re + im * im;
+    }
+    2.0 * sum
+}
+
+/// `2 Σ_k (|Â_k| − |B̂_k|)²`: a lower bound of `d(t)²` for every `t`.
+fn spectral_bound(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
+    let mut sum = 0.0;
+    for (x, y) in a.iter().zip(b) {
+        let d = x[0].hypot(x[1]) - y[0].hypot(y[1]);
+        sum += d * d;
+    }
+    2.0 * sum
+}
+
+/// Whether the spectral bounds apply to the pair: both totals equal (to rounding), so that
+/// `Θ_A(s + t) − Θ_B(s)` is periodic up to a constant.
+fn spectra_comparable(a: &TurningFunction, b: &TurningFunction) -> bool {
+    (a.total - b.total).abs() <= 1e-9
+        && a.spectrum.len() == HARMONICS
+        && b.spectrum.len() == HARMONICS
+        && a.phased.len() == a.starts.len() * HARMONICS
+        && b.phased.len() == b.starts.len() * HARMONICS
+}
+
+/// Whether a lower bound `lb` of a squared distance rules out distances up to `bound`,
+/// with room for rounding and for the steps shorter than [`SNAP`] that the exact evaluation
+/// ignores.
+pub fn bound_exceeds(lb: f64, bound: f64) -> bool {
+    lb > bound * bound * (1.0 + 1e-6) + 1e-7
+}
+
+/// A lower bound of the square of the best match's distance (`0` when none is known).
+pub fn distance_lower_bound_sq(a: &TurningFunction, b: &TurningFunction) -> f64 {
+    if spectra_comparable(a, b) {
+        spectral_bound(&a.spectrum, &b.spectrum)
+    } else {
+        0.0
+    }
 }
 
 impl TurningFunction {
@@ -89,7 +189,9 @@ pub fn turning_function(poly: &[Point]) -> Option<TurningFunction> {
         s += lens[i];
     }
     let total = angles.last().unwrap() + turn(dirs[n - 1], dirs[0]) - angles[0];
-    Some(TurningFunction { starts, angles, total })
+    let spectrum = spectrum(&starts, &angles, total);
+    let phased = phased(&starts, &spectrum);
+    Some(TurningFunction { starts, angles, total, spectrum, phased })
 }
 
 /// The result of matching `A` onto `B`.
@@ -106,8 +208,32 @@ pub struct TurningMatch {
 
 /// `d(t)` and the best rotation for one start shift `t`.
 pub fn distance_at(a: &TurningFunction, b: &TurningFunction, t: f64, allow_rotation: bool) -> (f64, f64) {
+    distance_at_bounded(a, b, t, allow_rotation, f64::INFINITY).expect("an infinite bound never prunes")
+}
+
+/// Slack of the pruning tests: a value is pruned only when its lower bound exceeds the bound
+/// by more than this (relative and absolute), far above the rounding of the sums, so that a
+/// value equal to the bound (a tie) is always computed in full.
+const PRUNE_SLACK: f64 = 1e-9;
+
+/// [`distance_at`], giving up (`None`) as soon as `d(t)` is certain to exceed `bound`.
+///
+/// Over the part `[0, p]` of `[0, 1]` walked so far, `min_θ ∫_0^p (f + θ)² = s₂ − s₁²/p`
+/// (`s₁`, `s₂` the partial integrals of `f − f(0)` and its square) can only grow with `p`,
+/// and at `p = 1` it is `d(t)²` (rotation allowed) or a lower bound of it (rotation
+/// forbidden). When it is not pruned the value returned is bit-identical to the unbounded
+/// evaluation: the same sums are formed in the same order.
+pub fn distance_at_bounded(
+    a: &TurningFunction,
+    b: &TurningFunction,
+    t: f64,
+    allow_rotation: bool,
+    bound: f64,
+) -> Option<(f64, f64)> {
     let t = t - t.floor();
     let m = a.starts.len();
+    // Pruning threshold on `s₂·p − s₁²` (squared distance times p).
+    let limit = if bound.is_finite() { bound * bound * (1.0 + PRUNE_SLACK) + PRUNE_SLACK } else { f64::INFINITY };
     // The step of A containing t (snapped: a start within SNAP above t counts as t).
     let i0 = a.starts.partition_point(|&x| x <= t + SNAP).saturating_sub(1);
     // Breakpoints and values of g(s) = Θ_A(s + t) on [0, 1).
@@ -146,6 +272,9 @@ pub fn distance_at(a: &TurningFunction, b: &TurningFunction, t: f64, allow_rotat
             let d = g_val(kg) - b.angles[kb] - f0;
             s1 += d * len;
             s2 += d * d * len;
+            if s2 * end - s1 * s1 > limit * end {
+                return None;
+            }
         }
         if eg <= end + SNAP {
             kg += 1;
@@ -161,34 +290,101 @@ pub fn distance_at(a: &TurningFunction, b: &TurningFunction, t: f64, allow_rotat
     let var = (s2 - s1 * s1).max(0.0);
     let big_f = f0 + s1;
     if allow_rotation {
-        (var.sqrt(), -big_f)
+        Some((var.sqrt(), -big_f))
     } else {
         let k = (-big_f / TAU).round();
         let off = big_f + TAU * k;
-        ((var + off * off).sqrt(), TAU * k)
+        Some(((var + off * off).sqrt(), TAU * k))
     }
+}
+
+/// The critical event `t = a_i − b_j mod 1`.
+fn event(ai: f64, bj: f64) -> f64 {
+    let mut t = ai - bj;
+    if t < 0.0 {
+        t += 1.0;
+    }
+    if t >= 1.0 {
+        t -= 1.0;
+    }
+    t
 }
 
 /// The best match of `A` onto `B` over all critical events (ties: the first event in
 /// `(i, j)` order).
 pub fn best_match(a: &TurningFunction, b: &TurningFunction, allow_rotation: bool) -> TurningMatch {
+    best_match_bounded(a, b, allow_rotation, f64::INFINITY).expect("an infinite bound never prunes")
+}
+
+/// [`best_match`] among the matches not worse than `bound`: `None` when every critical event
+/// is certain to exceed `bound`; otherwise the match [`best_match`] would return, bit for bit,
+/// whenever its distance is at most `bound` (a result above `bound` may also come back).
+///
+/// Each critical event first gets a spectral lower bound of `d(t)²` (Parseval on the first
+/// [`HARMONICS`] Fourier coefficients of the periodic parts of `Θ`); the event with the
+/// smallest bound is evaluated first, then the events are visited in `(i, j)` order, each
+/// skipped if its bound exceeds the best distance so far, and otherwise evaluated with that
+/// distance as its bound ([`distance_at_bounded`]). Every event that could equal the
+/// minimum is evaluated exactly, and ties go to the first event in `(i, j)` order, as in
+/// the exhaustive loop.
+pub fn best_match_bounded(
+    a: &TurningFunction,
+    b: &TurningFunction,
+    allow_rotation: bool,
+    bound: f64,
+) -> Option<TurningMatch> {
     let mut best = TurningMatch { distance: f64::INFINITY, shift: 0.0, rotation: 0.0 };
+    let mut limit = bound;
+    if spectra_comparable(a, b) {
+        if bound_exceeds(spectral_bound(&a.spectrum, &b.spectrum), limit) {
+            return None;
+        }
+        let nb = b.starts.len();
+        let mut lbs: Vec<f64> = Vec::with_capacity(a.starts.len() * nb);
+        let mut first = (f64::INFINITY, usize::MAX);
+        for pa in a.phased.chunks_exact(HARMONICS) {
+            for pb in b.phased.chunks_exact(HARMONICS) {
+                let lb = spectral_bound_at(pa, pb);
+                if lb < first.0 {
+                    first = (lb, lbs.len());
+                }
+                lbs.push(lb);
+            }
+        }
+        if lbs.iter().all(|lb| lb.is_finite()) {
+            if first.1 != usize::MAX && !bound_exceeds(first.0, limit) {
+                let t = event(a.starts[first.1 / nb], b.starts[first.1 % nb]);
+                if let Some((d, _)) = distance_at_bounded(a, b, t, allow_rotation, limit) {
+                    limit = limit.min(d);
+                }
+            }
+            for (index, &lb) in lbs.iter().enumerate() {
+                if bound_exceeds(lb, limit) {
+                    continue;
+                }
+                let t = event(a.starts[index / nb], b.starts[index % nb]);
+                if let Some((d, rot)) = distance_at_bounded(a, b, t, allow_rotation, limit) {
+                    if d < best.distance {
+                        best = TurningMatch { distance: d, shift: t, rotation: rot };
+                        limit = limit.min(d);
+                    }
+                }
+            }
+            return (best.distance < f64::INFINITY || bound == f64::INFINITY).then_some(best);
+        }
+    }
     for &ai in &a.starts {
         for &bj in &b.starts {
-            let mut t = ai - bj;
-            if t < 0.0 {
-                t += 1.0;
-            }
-            if t >= 1.0 {
-                t -= 1.0;
-            }
-            let (d, rot) = distance_at(a, b, t, allow_rotation);
-            if d < best.distance {
-                best = TurningMatch { distance: d, shift: t, rotation: rot };
+            let t = event(ai, bj);
+            if let Some((d, rot)) = distance_at_bounded(a, b, t, allow_rotation, limit) {
+                if d < best.distance {
+                    best = TurningMatch { distance: d, shift: t, rotation: rot };
+                    limit = limit.min(d);
+                }
             }
         }
     }
-    best
+    (best.distance < f64::INFINITY || bound == f64::INFINITY).then_some(best)
 }
 
 /// Turning distance between two polygons (`∞` if either is degenerate).

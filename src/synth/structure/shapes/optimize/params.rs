@@ -32,6 +32,10 @@ pub struct ShapeParams {
     pub max_halvings: u32,
     /// Run the edge-length distribution check (V15).
     pub distribution_check: bool,
+    /// Fraction of the first-order area correction applied per iteration by the area check,
+    /// which pulls every region back towards its input (stage-1) area (1; 0 disables it);
+    /// three more full corrections run before the final merge.
+    pub area_step: f64,
     /// Percentiles of the original edge lengths bounding the accepted range (`[0.01, 0.99]`).
     pub edge_percentiles: [f64; 2],
     /// Edges shorter than this are collapsed after optimisation, and after every iteration
@@ -77,6 +81,7 @@ impl Default for ShapeParams {
             stall_iters: 5,
             max_halvings: 3,
             distribution_check: true,
+            area_step: 1.0,
             edge_percentiles: [0.01, 0.99],
             min_edge: 2.0,
             include_border_regions: false,

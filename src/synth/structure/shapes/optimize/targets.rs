@@ -3,8 +3,9 @@
 //! iterations minimise.
 
 use super::params::{ShapeParams, TargetRule};
-use crate::synth::structure::shapes::associate::{associate, Association};
+use crate::synth::structure::shapes::associate::{associate_one, AssocKind, Association, OriginalShapes};
 use crate::synth::structure::types::Point;
+use rayon::prelude::*;
 
 /// An association in force during the iterations.
 #[derive(Clone)]
@@ -37,37 +38,87 @@ pub(super) struct Round {
     pub(super) log: Vec<String>,
 }
 
-/// Associates the eligible regions (Algorithm 2); others get `None`.
-pub(super) fn associate_regions(
-    verts: &[Point],
-    regions: &[Vec<usize>],
-    eligible: &[bool],
-    originals: &[Vec<Point>],
-    params: &ShapeParams,
-) -> Round {
-    let ids: Vec<usize> = (0..regions.len()).filter(|&r| eligible[r]).collect();
-    let polys: Vec<Vec<Point>> = ids.iter().map(|&r| regions[r].iter().map(|&i| verts[i]).collect()).collect();
-    let mut associations = vec![None; regions.len()];
-    if originals.is_empty() || polys.is_empty() {
-        return Round { associations, fallbacks: 0, failed: 0, log: Vec::new() };
+/// One association of a region's polygon, kept for reuse.
+#[derive(Clone)]
+struct Cached {
+    poly: Vec<Point>,
+    association: Option<Association>,
+    msg: Option<String>,
+}
+
+/// Associates regions (Algorithm 2) against originals whose shapes are computed once. The
+/// last two associations of every region are remembered: a region whose polygon is
+/// unchanged (bit for bit) gets the same association again without a search (the
+/// association is a pure function of the polygon), and a changed one starts its search at
+/// its previous original, which only makes it faster.
+pub(super) struct Associator {
+    shapes: OriginalShapes,
+    empty: bool,
+    params: ShapeParams,
+    /// Per region, the most recent association first.
+    cache: Vec<Vec<Cached>>,
+}
+
+impl Associator {
+    pub(super) fn new(originals: &[Vec<Point>], params: &ShapeParams) -> Self {
+        Associator {
+            shapes: OriginalShapes::new(originals),
+            empty: originals.is_empty(),
+            params: *params,
+            cache: Vec::new(),
+        }
     }
-    let report = associate(&polys, originals, &params.associate_params());
-    for (k, a) in report.associations.into_iter().enumerate() {
-        associations[ids[k]] = a;
+
+    /// Associates the eligible regions; others get `None`.
+    pub(super) fn round(&mut self, verts: &[Point], regions: &[Vec<usize>], eligible: &[bool]) -> Round {
+        let ids: Vec<usize> = (0..regions.len()).filter(|&r| eligible[r]).collect();
+        let mut associations = vec![None; regions.len()];
+        if self.empty || ids.is_empty() {
+            return Round { associations, fallbacks: 0, failed: 0, log: Vec::new() };
+        }
+        if self.cache.len() < regions.len() {
+            self.cache.resize(regions.len(), Vec::new());
+        }
+        let aparams = self.params.associate_params();
+        let (shapes, cache) = (&self.shapes, &self.cache);
+        let fresh: Vec<(Vec<Point>, Option<Cached>)> = ids
+            .par_iter()
+            .map(|&r| {
+                let poly: Vec<Point> = regions[r].iter().map(|&i| verts[i]).collect();
+                if let Some(c) = cache[r].iter().find(|c| c.poly == poly) {
+                    return (poly, Some(c.clone()));
+                }
+                let hint = cache[r].first().and_then(|c| c.association.as_ref()).map(|a| a.original);
+                let (association, msg) = associate_one(r, &poly, shapes, &aparams, hint);
+                (poly, Some(Cached { poly: Vec::new(), association, msg }))
+            })
+            .collect();
+        let (mut fallbacks, mut failed, mut log) = (0, 0, Vec::new());
+        for (&r, (poly, c)) in ids.iter().zip(fresh) {
+            let mut c = c.expect("computed or cached");
+            c.poly = poly;
+            match c.association.as_ref().map(|a| a.kind) {
+                Some(AssocKind::Widened(_) | AssocKind::NearestArea) => fallbacks += 1,
+                Some(AssocKind::Within) => {}
+                None => failed += 1,
+            }
+            log.extend(c.msg.clone());
+            associations[r] = c.association.clone();
+            let slot = &mut self.cache[r];
+            if let Some(k) = slot.iter().position(|x| x.poly == c.poly) {
+                slot.remove(k);
+            }
+            slot.insert(0, c);
+            slot.truncate(2);
+        }
+        Round { associations, fallbacks, failed, log }
     }
-    // Messages name the position in `polys`; rewrite them with region indices.
-    let log = report
-        .log
-        .into_iter()
-        .map(|m| match m.strip_prefix("region ").and_then(|rest| rest.split_once(':')) {
-            Some((k, rest)) => match k.parse::<usize>() {
-                Ok(k) if k < ids.len() => format!("region {}:{rest}", ids[k]),
-                _ => m,
-            },
-            None => m,
-        })
-        .collect();
-    Round { associations, fallbacks: report.widened + report.nearest_area, failed: report.failed, log }
+
+    /// Mean turning distance between each eligible region and its closest original (a fresh
+    /// association).
+    pub(super) fn error(&mut self, verts: &[Point], regions: &[Vec<usize>], eligible: &[bool]) -> f64 {
+        mean_distance(&self.round(verts, regions, eligible).associations)
+    }
 }
 
 /// The target of every vertex of `poly` on the placed original.
@@ -140,18 +191,6 @@ pub(super) fn matched_corner_targets(poly: &[Point], placed: &[Point]) -> Vec<Po
             best.1
         })
         .collect()
-}
-
-/// Mean turning distance between each eligible region and its closest original (a fresh
-/// association).
-pub(super) fn closest_error(
-    verts: &[Point],
-    regions: &[Vec<usize>],
-    eligible: &[bool],
-    originals: &[Vec<Point>],
-    params: &ShapeParams,
-) -> f64 {
-    mean_distance(&associate_regions(verts, regions, eligible, originals, params).associations)
 }
 
 /// Mean turning distance of the associations (`0` if there are none).
