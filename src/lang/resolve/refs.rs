@@ -8,12 +8,26 @@ use crate::lang::diag::{suggest, Diagnostic};
 use crate::lang::schema::{self, KindSpec, Value};
 use crate::lang::source::Span;
 
+/// `a sample, an appearance or a layer`.
+fn with_articles(names: &[&str]) -> String {
+    let one = |n: &str| {
+        let vowel = n.starts_with(['a', 'e', 'i', 'o', 'u']);
+        format!("{} {n}", if vowel { "an" } else { "a" })
+    };
+    let mut parts: Vec<String> = names.iter().map(|n| one(n)).collect();
+    let last = parts.pop().unwrap_or_default();
+    if parts.is_empty() {
+        last
+    } else {
+        format!("{} or {last}", parts.join(", "))
+    }
+}
+
 impl Checker<'_> {
-    /// The kinds whose declarations produce one of `values`, for messages: `sample or layer`.
-    fn producers(&self, values: &[Value]) -> String {
-        let kinds: Vec<&str> =
-            self.registry.iter().filter(|k| k.produces.iter().any(|v| values.contains(v))).map(|k| k.name).collect();
-        kinds.join(" or ")
+    /// The kinds whose declarations produce one of `values`, for messages: `a sample, an
+    /// appearance or a layer`.
+    fn producers(&self, values: &[Value]) -> Vec<&'static str> {
+        self.registry.iter().filter(|k| k.produces.iter().any(|v| values.contains(v))).map(|k| k.name).collect()
     }
 
     pub(super) fn reference(&mut self, name: &str, span: Span, values: &[Value]) -> Option<String> {
@@ -32,8 +46,8 @@ impl Checker<'_> {
                 ))
                 .with_code("tessera::wrong_kind")
                 .with_label(span, format!("this is a {}", k.name));
-                if producers.contains(" or ") {
-                    d = d.with_help(format!("{} comes from a {producers}", schema::values(values)));
+                if producers.len() > 1 {
+                    d = d.with_help(format!("{} comes from {}", schema::values(values), with_articles(&producers)));
                 }
                 self.errors.push(d);
                 None
@@ -41,7 +55,7 @@ impl Checker<'_> {
             None => {
                 let mut d = Diagnostic::error(format!("unknown name `{name}`"))
                     .with_code("tessera::unknown_name")
-                    .with_label(span, format!("no {} of this name", self.producers(values)));
+                    .with_label(span, format!("no {} of this name", self.producers(values).join(" or ")));
                 let candidates: Vec<&str> =
                     self.kinds.iter().filter(|(_, k)| produces(k)).map(|(n, _)| n.as_str()).collect();
                 if let Some(s) = suggest(name, candidates) {

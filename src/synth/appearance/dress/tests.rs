@@ -107,8 +107,8 @@ fn f23_clusters_follow_the_mode() {
     let previous: Vec<Option<usize>> = (0..polys.len()).map(|r| (r % 2 == 0).then_some(2 - r % 3)).collect();
     let p = DressParams { cluster_choice: ClusterChoice::Sticky, ..Default::default() };
     let s = dress(&mesh, &data, &p, 2, &DressHints { associations: None, previous_clusters: Some(&previous) });
-    for r in 0..polys.len() {
-        let want = previous[r].unwrap_or(data.originals[assoc.associations[r].as_ref().expect("a").original].cluster);
+    for (r, prev) in previous.iter().enumerate() {
+        let want = prev.unwrap_or(data.originals[assoc.associations[r].as_ref().expect("a").original].cluster);
         assert_eq!(s.clusters[r], Some(want));
     }
 }

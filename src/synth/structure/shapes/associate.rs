@@ -379,7 +379,7 @@ mod tests {
     }
 
     /// The area rule and orientation parts of F15, and self-association of jittered, moved and
-    /// rotated copies of the originals (not the digest's trivial-synthesis scenario, which is
+    /// rotated copies of the originals (not the checklist's trivial-synthesis scenario, which is
     /// `f15_self_association_under_trivial_synthesis`).
     #[test]
     fn f15_self_association_and_orientation() {
@@ -430,7 +430,7 @@ mod tests {
         }
     }
 
-    /// F15 on the digest's scenario: the trivial synthesis of F9 (random swaps of the
+    /// F15 on the checklist's scenario: the trivial synthesis of F9 (random swaps of the
     /// sample's own ellipses, then Lloyd), polygonised as the pipeline does, associated
     /// against the sample's interior regions. The region grown from the ellipse of original
     /// `j` should pick original `j` in ≥ 90 % of cases.

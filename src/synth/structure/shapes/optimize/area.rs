@@ -52,7 +52,7 @@ pub(super) fn area_pulls(st: &State, targets: &[f64], step: f64) -> Vec<Point> {
             norm += g[0] * g[0] + g[1] * g[1];
             grads.push(g);
         }
-        if !(norm > 0.0) {
+        if norm.is_nan() || norm <= 0.0 {
             continue;
         }
         let lambda = step * (target - a) / norm;
