@@ -151,3 +151,15 @@ fn a_valency_missing_from_the_atlas_is_a_warning_with_the_fallback() {
     let err = run.stderr();
     assert!(err.contains("1 vertices of valency 4: no atlas star of that valency, used valency 3"), "{err}");
 }
+
+#[test]
+fn a_drawing_without_an_image_can_be_dressed_in_place() {
+    let scene = SCENE.replace(
+        "appearance dressed {\n  from = stones\n  on = layout",
+        "sample drawing {\n  structure = \"wall_random.json\"\n}\n\nappearance dressed {\n  from = stones\n  on = drawing",
+    );
+    let p = project(&scene);
+    p.tessera(&["build", "scene.tess"]).ok();
+    let png = tessera::raster::io::decode(&p.read("out/scene/wall.png")).expect("png");
+    assert_eq!((png.width, png.height, png.channels), (512, 384, 4));
+}

@@ -150,7 +150,13 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
     let on = props.reference("on").unwrap_or(&from).to_string();
     let scale = props.num("resolution");
     let (target_handle, size) = if p.exports(&on).example.is_some() {
-        let analysis = if on == from { interiors_in.analysis } else { sample_inputs(p, d, "on", &on)?.analysis };
+        // Only the drawing of a sample dressed in place is read: it needs no image.
+        let analysis = if on == from {
+            interiors_in.analysis
+        } else {
+            let (path, span) = p.exports(&on).example.expect("checked above");
+            plan_analysis(p, &on, path, span)
+        };
         (TargetHandle::Sample(analysis), None)
     } else {
         let on_decl = p.decl(&on);
