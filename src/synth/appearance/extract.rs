@@ -11,6 +11,7 @@
 use super::color::{lab_at, mean_lab};
 use super::types::{Extract, Point};
 use crate::raster::Image;
+use crate::synth::structure::analysis::labels_import::row_crossings;
 
 /// The default shrink: 2 px (our choice; the thesis only says "slightly").
 pub const DEFAULT_SHRINK: f64 = 2.0;
@@ -99,17 +100,7 @@ fn interior_mask(poly: &[Point], iw: usize, ih: usize, shrink: f64) -> Option<(u
     let s2 = shrink * shrink;
     for j in 0..h {
         let yc = (y0 + j) as f64 + 0.5;
-        xs.clear();
-        for i in 0..n {
-            let (mut a, mut b) = (poly[i], poly[(i + 1) % n]);
-            if a[1] > b[1] || (a[1] == b[1] && a[0] > b[0]) {
-                std::mem::swap(&mut a, &mut b);
-            }
-            if a[1] <= yc && yc < b[1] {
-                xs.push(a[0] + (yc - a[1]) / (b[1] - a[1]) * (b[0] - a[0]));
-            }
-        }
-        xs.sort_by(f64::total_cmp);
+        row_crossings(poly, yc, &mut xs);
         for pair in xs.chunks(2) {
             if pair.len() < 2 {
                 break;

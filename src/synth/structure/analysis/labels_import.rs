@@ -291,6 +291,23 @@ fn dist2(a: Point, b: Point) -> f64 {
 /// Polygons that share an edge split its pixels without gaps or double counting, because
 /// each edge's crossing with a pixel-centre row is computed from its end points in `y`
 /// order, and the span rule is half-open.
+/// The sorted x of the crossings of the row `y = yc` with the closed polygon's edges (each
+/// edge half-open in y, so a vertex on the row counts once): the spans of a scan fill.
+pub(crate) fn row_crossings(poly: &[Point], yc: f64, xs: &mut Vec<f64>) {
+    let n = poly.len();
+    xs.clear();
+    for i in 0..n {
+        let (mut a, mut b) = (poly[i], poly[(i + 1) % n]);
+        if a[1] > b[1] || (a[1] == b[1] && a[0] > b[0]) {
+            std::mem::swap(&mut a, &mut b);
+        }
+        if a[1] <= yc && yc < b[1] {
+            xs.push(a[0] + (yc - a[1]) / (b[1] - a[1]) * (b[0] - a[0]));
+        }
+    }
+    xs.sort_by(f64::total_cmp);
+}
+
 pub fn rasterize_polygons(polys: &[Vec<Point>], w: usize, h: usize) -> Labels {
     let mut labels = Labels::new(w, h);
     let mut xs: Vec<f64> = Vec::new();
@@ -311,17 +328,7 @@ pub fn rasterize_polygons(polys: &[Vec<Point>], w: usize, h: usize) -> Labels {
         }
         for j in j0..=(j1 as usize) {
             let yc = j as f64 + 0.5;
-            xs.clear();
-            for i in 0..n {
-                let (mut a, mut b) = (poly[i], poly[(i + 1) % n]);
-                if a[1] > b[1] || (a[1] == b[1] && a[0] > b[0]) {
-                    std::mem::swap(&mut a, &mut b);
-                }
-                if a[1] <= yc && yc < b[1] {
-                    xs.push(a[0] + (yc - a[1]) / (b[1] - a[1]) * (b[0] - a[0]));
-                }
-            }
-            xs.sort_by(f64::total_cmp);
+            row_crossings(poly, yc, &mut xs);
             for pair in xs.chunks(2) {
                 if pair.len() < 2 {
                     break;
