@@ -80,6 +80,7 @@ fn bench(c: &mut Criterion) {
                 &mesh.on_domain_border,
                 (SIZE as f64, SIZE as f64),
                 &originals,
+                &[],
                 &params,
             )
         })

@@ -244,6 +244,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
         reassociate_every: shapes.int("reassociate") as usize,
         area_tol: shapes.num("area_tolerance"),
         allow_rotation: shapes.bool("allow_rotation"),
+        ellipse_weight: shapes.num("ellipse_weight"),
         tol: shapes.num("tolerance"),
         min_edge: block.num("min_edge"),
         straight_deg: block.num("straight").to_degrees(),
@@ -254,12 +255,13 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
         mesh: inputs.add(s3),
         analysis: inputs.add(a1),
         generators: inputs.add(last_generators),
+        relaxed: inputs.add(s2),
         scale: props.num("scale"),
         params,
         w,
         h,
     };
-    let s4 = FnStage::keyed("structure.shapes", 5, shaping, optimise_shapes);
+    let s4 = FnStage::keyed("structure.shapes", 6, shaping, optimise_shapes);
     let s4 = p.add(format!("structure {} (shapes)", d.name), s4, inputs, vec![]);
 
     p.set_part(d, "lloyd", s2);
@@ -357,6 +359,8 @@ struct Shaping {
     analysis: In<SampleStructure>,
     /// The generators Lloyd last ran on: laid courses keep their bricks' shapes.
     generators: In<Generators>,
+    /// The generators each region was grown from (the association's priors).
+    relaxed: In<Relaxed>,
     scale: f64,
     params: ShapeParams,
     w: usize,
@@ -385,11 +389,25 @@ fn optimise_shapes(cx: &RunCx, s: &Shaping) -> Result<Shaped, StageError> {
             })
             .collect()
     };
+    // Each region's generator as the final Voronoi step saw it (size map applied).
+    let sized = &cx.get(s.relaxed).sized;
+    let priors: Vec<Option<optimize::Prior>> = m
+        .region_labels
+        .iter()
+        .map(|&l| sized.get(l as usize).map(|e| optimize::Prior { a: e.a, b: e.b, theta: e.theta }))
+        .collect();
     if sparams.max_iters == 0 || cx.get(s.generators).courses.is_some() {
         // Stage 2 is off, or the regions are laid bricks (whose shapes come from the sample
         // already; moving their vertices would bend the courses): the mesh stays as it is,
         // but its regions still learn their closest originals (appearance needs them).
-        let found = optimize::associate_mesh(&m.mesh, &m.on_occupancy_border, &m.on_domain_border, &originals, sparams);
+        let found = optimize::associate_mesh(
+            &m.mesh,
+            &m.on_occupancy_border,
+            &m.on_domain_border,
+            &originals,
+            &priors,
+            sparams,
+        );
         return Ok(Shaped {
             mesh: m.mesh.clone(),
             placed: vec![None; m.mesh.regions.len()],
@@ -403,6 +421,7 @@ fn optimise_shapes(cx: &RunCx, s: &Shaping) -> Result<Shaped, StageError> {
         &m.on_domain_border,
         (s.w as f64, s.h as f64),
         &originals,
+        &priors,
         sparams,
     );
     if r.fallback_associations > 0 || r.failed_associations > 0 {

@@ -125,6 +125,12 @@ static SHAPES: &[PropSpec] = &[
         "An associated original's area must be within this of its region's (widened in 10 % steps to 50 % if needed).",
     ),
     p("allow_rotation", Ty::Bool, Default::Text("true"), "Rotate originals to fit; `false` keeps their orientation."),
+    p(
+        "ellipse_weight",
+        Ty::Number(Unit::Plain, Range { min: 0.0, max: 1000.0 }),
+        Default::Text("8"),
+        "Weight of the mismatch between a region's generator ellipse and an original's fitted ellipse in the association cost, beside the turning distance (0: the turning distance alone, as in the thesis).",
+    ),
     p("reassociate", Ty::Int(1, 10_000), Default::Text("10"), "Recompute the associations every this many sweeps."),
     p(
         "tolerance",

@@ -99,7 +99,7 @@ mod params;
 mod state;
 mod targets;
 
-pub use crate::synth::structure::shapes::associate::Association;
+pub use crate::synth::structure::shapes::associate::{Association, Prior};
 use area::*;
 use distribution::*;
 use merge::*;
@@ -111,7 +111,8 @@ use targets::*;
 /// Stage-2 shape optimisation ([references: frasson §3.5.4]) of a valid mesh tiling (part of) the domain
 /// `[0, width] × [0, height]`. `fixed[v]`: the vertex never moves; `border[v]`: the vertex is
 /// on the domain border and may only slide along it. `originals` are the sample's region
-/// polygons, already scaled by the structure's scale.
+/// polygons, already scaled by the structure's scale. `priors[r]`: the generator region `r`
+/// was grown from, if known (empty: none; see [`crate::synth::structure::shapes::associate`]).
 ///
 /// # Panics
 /// If `fixed` or `border` does not have one entry per mesh vertex.
@@ -121,9 +122,10 @@ pub fn optimize_shapes(
     border: &[bool],
     domain: (f64, f64),
     originals: &[Vec<Point>],
+    priors: &[Option<Prior>],
     params: &ShapeParams,
 ) -> ShapeResult {
-    optimize_shapes_observed(mesh, fixed, border, domain, originals, params, |_, _, _| {})
+    optimize_shapes_observed(mesh, fixed, border, domain, originals, priors, params, |_, _, _| {})
 }
 
 /// The closest original of every region of `mesh` without moving anything (what
@@ -135,10 +137,11 @@ pub fn associate_mesh(
     fixed: &[bool],
     border: &[bool],
     originals: &[Vec<Point>],
+    priors: &[Option<Prior>],
     params: &ShapeParams,
 ) -> Vec<Option<Association>> {
     let eligible = eligible_regions(mesh, fixed, border, params);
-    Associator::new(originals, params).round(&mesh.vertices, &mesh.regions, &eligible).associations
+    Associator::new(originals, priors, params).round(&mesh.vertices, &mesh.regions, &eligible).associations
 }
 
 fn eligible_regions(mesh: &Mesh, fixed: &[bool], border: &[bool], params: &ShapeParams) -> Vec<bool> {
@@ -157,6 +160,7 @@ pub fn optimize_shapes_observed(
     border: &[bool],
     domain: (f64, f64),
     originals: &[Vec<Point>],
+    priors: &[Option<Prior>],
     params: &ShapeParams,
     mut observe: impl FnMut(usize, &[Point], &[Vec<usize>]),
 ) -> ShapeResult {
@@ -174,7 +178,7 @@ pub fn optimize_shapes_observed(
     let mut log = Vec::new();
     let mut rounds = 0;
     let mut active: Vec<Option<Active>> = Vec::new();
-    let mut associator = Associator::new(originals, params);
+    let mut associator = Associator::new(originals, priors, params);
     let mut reassociate = |st: &State, active: &mut Vec<Option<Active>>, associator: &mut Associator| {
         let round = associator.round(&st.verts, &st.regions, &eligible);
         fallbacks += round.fallbacks;

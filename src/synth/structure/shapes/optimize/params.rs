@@ -22,6 +22,9 @@ pub struct ShapeParams {
     /// Rotate the placed originals by the best turning-function rotation
     /// (`shapes.allow_rotation`, true).
     pub allow_rotation: bool,
+    /// Weight of the generator-ellipse mismatch in the association cost
+    /// (`shapes.ellipse_weight`, 8; see `associate`).
+    pub ellipse_weight: f64,
     /// Stop when the mean shape error is below this (`shapes.tol`, 0.05).
     pub tol: f64,
     /// Stall rule: stop when the relative improvement of the error stays below `stall_rel`
@@ -76,6 +79,7 @@ impl Default for ShapeParams {
             widen_step: 0.1,
             max_tol: 0.5,
             allow_rotation: true,
+            ellipse_weight: 8.0,
             tol: 0.05,
             stall_rel: 0.01,
             stall_iters: 5,
@@ -99,6 +103,7 @@ impl ShapeParams {
             widen_step: self.widen_step,
             max_tol: self.max_tol,
             allow_rotation: self.allow_rotation,
+            ellipse_weight: self.ellipse_weight,
         }
     }
 }

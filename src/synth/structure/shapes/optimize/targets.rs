@@ -3,7 +3,7 @@
 //! iterations minimise.
 
 use super::params::{ShapeParams, TargetRule};
-use crate::synth::structure::shapes::associate::{associate_one, AssocKind, Association, OriginalShapes};
+use crate::synth::structure::shapes::associate::{associate_one, AssocKind, Association, OriginalShapes, Prior};
 use crate::synth::structure::types::Point;
 use rayon::prelude::*;
 
@@ -55,16 +55,19 @@ pub(super) struct Associator {
     shapes: OriginalShapes,
     empty: bool,
     params: ShapeParams,
+    /// Per region, the generator it was grown from (shorter than the regions: none).
+    priors: Vec<Option<Prior>>,
     /// Per region, the most recent association first.
     cache: Vec<Vec<Cached>>,
 }
 
 impl Associator {
-    pub(super) fn new(originals: &[Vec<Point>], params: &ShapeParams) -> Self {
+    pub(super) fn new(originals: &[Vec<Point>], priors: &[Option<Prior>], params: &ShapeParams) -> Self {
         Associator {
             shapes: OriginalShapes::new(originals),
             empty: originals.is_empty(),
             params: *params,
+            priors: priors.to_vec(),
             cache: Vec::new(),
         }
     }
@@ -80,7 +83,7 @@ impl Associator {
             self.cache.resize(regions.len(), Vec::new());
         }
         let aparams = self.params.associate_params();
-        let (shapes, cache) = (&self.shapes, &self.cache);
+        let (shapes, cache, priors) = (&self.shapes, &self.cache, &self.priors);
         let fresh: Vec<(Vec<Point>, Option<Cached>)> = ids
             .par_iter()
             .map(|&r| {
@@ -89,7 +92,7 @@ impl Associator {
                     return (poly, Some(c.clone()));
                 }
                 let hint = cache[r].first().and_then(|c| c.association.as_ref()).map(|a| a.original);
-                let (association, msg) = associate_one(r, &poly, shapes, &aparams, hint);
+                let (association, msg) = associate_one(r, &poly, shapes, &aparams, hint, priors.get(r).copied().flatten());
                 (poly, Some(Cached { poly: Vec::new(), association, msg }))
             })
             .collect();

@@ -41,7 +41,7 @@ fn f16_case(s: &StandIn) {
     let params = ShapeParams::default();
     let mut invalid = Vec::new();
     let res =
-        optimize_shapes_observed(&mesh, &fixed, &border, (w as f64, h as f64), &originals, &params, |k, v, regions| {
+        optimize_shapes_observed(&mesh, &fixed, &border, (w as f64, h as f64), &originals, &[], &params, |k, v, regions| {
             let m = Mesh { vertices: v.to_vec(), regions: regions.to_vec() };
             if let Err(e) = check_mesh(&m) {
                 invalid.push((k, e));
@@ -165,7 +165,7 @@ fn closest_vertex_rule_and_border_regions_stay_valid() {
         ..ShapeParams::default()
     };
     let mut checked = 0;
-    let res = optimize_shapes_observed(&mesh, &fixed, &border, (w, h), &originals, &params, |k, v, regions| {
+    let res = optimize_shapes_observed(&mesh, &fixed, &border, (w, h), &originals, &[], &params, |k, v, regions| {
         let m = Mesh { vertices: v.to_vec(), regions: regions.to_vec() };
         check_mesh(&m).unwrap_or_else(|e| panic!("iteration {k}: {e}"));
         checked += 1;
@@ -204,6 +204,7 @@ fn independent_of_thread_count() {
                 &border,
                 (s.width as f64, s.height as f64),
                 &originals,
+                &[],
                 &ShapeParams::default(),
             )
         })
@@ -377,7 +378,7 @@ fn associate_mesh_finds_each_region_itself_without_moving_it() {
     let own: Vec<usize> = (0..mesh.regions.len()).filter(|&r| mesh.regions[r].iter().all(|&v| !border[v])).collect();
     let originals: Vec<Vec<Point>> =
         own.iter().map(|&r| mesh.regions[r].iter().map(|&v| mesh.vertices[v]).collect()).collect();
-    let found = associate_mesh(&mesh, &fixed, &border, &originals, &ShapeParams::default());
+    let found = associate_mesh(&mesh, &fixed, &border, &originals, &[], &ShapeParams::default());
     assert_eq!(found.len(), mesh.regions.len());
     for (r, a) in found.iter().enumerate() {
         match own.iter().position(|&o| o == r) {
