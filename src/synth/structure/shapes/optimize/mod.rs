@@ -154,6 +154,7 @@ fn eligible_regions(mesh: &Mesh, fixed: &[bool], border: &[bool], params: &Shape
 /// [`optimize_shapes`], calling `observe(k, vertices, regions)` with the mesh of the input
 /// (`k = 0`) and after every iteration `k` (vertex indices are those of the input; merged
 /// vertices no longer appear in the cycles). The final merge happens after the last call.
+#[allow(clippy::too_many_arguments)] // the inputs of `optimize_shapes` plus the observer
 pub fn optimize_shapes_observed(
     mesh: &Mesh,
     fixed: &[bool],
