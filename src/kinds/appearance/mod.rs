@@ -232,7 +232,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
         RenderWork { dressing: inputs.add(s5), interiors: inputs.add(a2), contours: inputs.add(a3), size, scale };
     let r2 = p.add(
         format!("appearance {} (render)", d.name),
-        FnStage::keyed("appearance.render", 1, work, run_render),
+        FnStage::keyed("appearance.render", 2, work, run_render),
         inputs,
         vec![],
     );
