@@ -5,35 +5,10 @@
 
 mod common;
 
-use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
-use common::{Project, Run};
-
-/// Runs tessera, killing it after `limit` (the old code hung or ran for minutes here).
-fn run_within(dir: &Path, args: &[&str], limit: Duration) -> (Run, Duration) {
-    let start = Instant::now();
-    let mut child = Command::new(common::bin())
-        .args(args)
-        .current_dir(dir)
-        .env("NO_COLOR", "1")
-        .env_remove("RUST_BACKTRACE")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run tessera");
-    while child.try_wait().expect("wait").is_none() {
-        if start.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("tessera {args:?} ran past {limit:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let out = child.wait_with_output().expect("output");
-    (Run { out }, start.elapsed())
-}
+use common::{run_within, Project, Run};
 
 /// Stderr with miette's wrapping undone: one line, single spaces, no gutter bars.
 fn flat(run: &Run) -> String {

@@ -22,7 +22,8 @@ pub struct StageError {
     pub help: Option<String>,
     /// Which input file, if the failure is about one (index into the node's `files`).
     pub file: Option<usize>,
-    /// Which property of the declaration, if the failure is about one.
+    /// Which property of the declaration, if the failure is about one (`block.name` for one
+    /// inside a block; the diagnostic points at the nearest of them the user wrote).
     pub prop: Option<&'static str>,
 }
 

@@ -142,7 +142,7 @@ impl Plan {
         let decl = &scene.decls[blame.decl];
         let (span, label) = if let Some(s) = failure.error.file.and_then(|i| blame.files.get(i).copied()) {
             (s, "this file")
-        } else if let Some(s) = failure.error.prop.and_then(|p| decl.props.span(p)) {
+        } else if let Some(s) = failure.error.prop.and_then(|p| decl.props.span_at(p)) {
             (s, "this value")
         } else {
             (blame.span, "in this declaration")

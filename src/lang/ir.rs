@@ -74,6 +74,21 @@ impl Props {
         self.0.get(name).and_then(|p| p.span)
     }
 
+    /// The span of the property at `path`, `block.name` for one inside a block; when the
+    /// user did not write it, the span of the nearest enclosing block they wrote.
+    pub fn span_at(&self, path: &str) -> Option<Span> {
+        let (head, rest) = match path.split_once('.') {
+            Some((head, rest)) => (head, Some(rest)),
+            None => (path, None),
+        };
+        let prop = self.0.get(head)?;
+        let inner = match (rest, &prop.val) {
+            (Some(rest), Val::Block(b)) => b.span_at(rest),
+            _ => None,
+        };
+        inner.or(prop.span)
+    }
+
     fn expect(&self, name: &str) -> &Val {
         self.get(name).unwrap_or_else(|| panic!("schema guarantees property `{name}`"))
     }

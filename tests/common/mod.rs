@@ -2,7 +2,8 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -143,6 +144,31 @@ pub fn run_in(dir: &Path, args: &[&str]) -> Run {
     Run { out }
 }
 
+/// Runs tessera in `dir`, killing it after `limit` (a hang fails the test instead of stalling
+/// it); the run and how long it took.
+pub fn run_within(dir: &Path, args: &[&str], limit: Duration) -> (Run, Duration) {
+    let start = Instant::now();
+    let mut child = Command::new(bin())
+        .args(args)
+        .current_dir(dir)
+        .env("NO_COLOR", "1")
+        .env_remove("RUST_BACKTRACE")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run tessera");
+    while child.try_wait().expect("wait").is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("tessera {args:?} ran past {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().expect("output");
+    (Run { out }, start.elapsed())
+}
+
 pub fn copy_dir(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).expect("mkdir");
     for e in std::fs::read_dir(from).expect("read_dir") {
@@ -192,7 +218,6 @@ pub fn failed_build(name: &str, scene: &str, extra: &[(&str, &[u8])]) -> String 
 /// order they arrive, the two streams interleaved).
 pub fn spawn_watch(p: &Project, scene: &str) -> (std::process::Child, std::sync::mpsc::Receiver<String>) {
     use std::io::{BufRead, BufReader};
-    use std::process::Stdio;
     let mut child = Command::new(bin())
         .args(["watch", scene])
         .current_dir(p.dir.path())

@@ -27,7 +27,7 @@ use crate::synth::appearance::analysis::{self, ContourParams, Contours, Interior
 use crate::synth::appearance::cluster::Clusters;
 use crate::synth::appearance::dress::{self, ClusterChoice, DressHints, DressParams, FlipMode};
 use crate::synth::appearance::render::{self, RenderParams};
-use crate::synth::appearance::unified::{InteriorParams, UnifiedParams};
+use crate::synth::appearance::unified::{InteriorError, InteriorParams, UnifiedParams};
 use crate::synth::appearance::Dressing;
 use crate::synth::structure::analysis::sample::SampleStructure;
 
@@ -36,6 +36,15 @@ pub use spec::SPEC;
 /// Working memory per rendered pixel: the RGBA result, its supersampled coverage and the
 /// per-layer scratch (four f32 planes each).
 const RENDER_BYTES_PER_PIXEL: f64 = 48.0;
+
+/// Memory per texel of one cluster's unified texture while it is made and kept: the guide
+/// and its weights, the texture, its index and source maps, the quilting planes (about
+/// 100–130 bytes measured on a 1024² texture).
+const UNIFIED_BYTES_PER_TEXEL: f64 = 128.0;
+
+/// Memory per pixel of the interstice and junction atlases: the RGBA atlas, the cut pieces
+/// held until they are pasted, their colours, and the copies the dressing and render read.
+const ATLAS_BYTES_PER_PIXEL: f64 = 64.0;
 
 /// The sample a role (`from`, `contours`, `on`) names: its image node and the analysis of its
 /// drawn structure.
@@ -180,7 +189,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
     };
     let a2 = p.add(
         format!("appearance {} (interiors)", d.name),
-        FnStage::keyed("appearance.interiors", 1, work, run_interiors),
+        FnStage::keyed("appearance.interiors", 2, work, run_interiors),
         inputs,
         vec![],
     );
@@ -232,7 +241,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
         RenderWork { dressing: inputs.add(s5), interiors: inputs.add(a2), contours: inputs.add(a3), size, scale };
     let r2 = p.add(
         format!("appearance {} (render)", d.name),
-        FnStage::keyed("appearance.render", 1, work, run_render),
+        FnStage::keyed("appearance.render", 2, work, run_render),
         inputs,
         vec![],
     );
@@ -358,17 +367,56 @@ fn checked_image(img: &Image, space: ColorSpace, s: &SampleStructure, role: &'st
 fn run_interiors(cx: &RunCx, w: &InteriorWork) -> Result<Interiors, StageError> {
     let s = cx.get(w.analysis);
     let img = checked_image(&cx.get(w.image), w.space, &s, "from")?;
-    let r = analysis::interiors(&img, &s, &w.params.params(), w.seed)
-        .map_err(|e| StageError::new(e.to_string()).at_prop("from"))?;
+    let params = w.params.params();
+    if let Some(side) = w.params.texture_size {
+        // One texture per cluster: as many as asked, else at most ten (or one per region).
+        let k = w.params.clusters.unwrap_or(10).min(s.polygons.len()).max(1);
+        let what = format!("quilting {k} unified texture{} of {side} x {side} px", if k == 1 { "" } else { "s" });
+        cx.budget().check(k as f64 * (side as f64).powi(2) * UNIFIED_BYTES_PER_TEXEL, &what).map_err(|e| {
+            StageError::new(e).at_prop("texture_size").with_help(
+                "use a smaller `texture_size` or fewer `clusters`, or raise the budget with `--max-memory` or `[limits] max_memory` in tessera.toml",
+            )
+        })?;
+    }
+    let r = analysis::interiors(&img, &s, &params, w.seed).map_err(|e| interior_error(&e, &params))?;
     for warning in &r.warnings {
         cx.warn(warning.clone());
     }
     Ok(r)
 }
 
+/// An interior analysis error at the property that decides it.
+fn interior_error(e: &InteriorError, params: &InteriorParams) -> StageError {
+    let message = e.to_string();
+    match *e {
+        InteriorError::NoInteriors { .. } => StageError::new(message).at_prop("shrink").with_help(
+            "regions are cut out `shrink` inside their outline; the sample's regions must be wider than twice that",
+        ),
+        InteriorError::TooManyBlocks { side, block, wanted, .. } => {
+            let u = &params.unified;
+            let smaller = format!("use `texture_size` of at most {} px", u.max_side(block));
+            // A larger block helps only when the regions held the one asked for.
+            let larger = u.min_block(side, wanted + 1).filter(|&b| block == wanted && b as f64 <= spec::BLOCK_MAX);
+            let help = match larger {
+                Some(b) => format!("{smaller}, or `block` of at least {b} px"),
+                None => smaller,
+            };
+            StageError::new(message).at_prop("texture_size").with_help(help)
+        }
+        InteriorError::Quilt { .. } => StageError::new(message).at_prop("from"),
+    }
+}
+
 fn run_contours(cx: &RunCx, w: &ContourWork) -> Result<Contours, StageError> {
     let s = cx.get(w.analysis);
     let img = checked_image(&cx.get(w.image), w.space, &s, "contours")?;
+    // The atlases grow with the strips' and stars' sizes: held to the budget before cutting.
+    let pixels = analysis::contour_atlas_pixels(&s.mesh, &w.params);
+    cx.budget().check(pixels * ATLAS_BYTES_PER_PIXEL, "cutting the interstice and junction atlases").map_err(|e| {
+        StageError::new(e).at_prop("interstice.half_width").with_help(
+            "use a smaller `half_width`, `extension` or `branch_length`, or raise the budget with `--max-memory` or `[limits] max_memory` in tessera.toml",
+        )
+    })?;
     let alpha = if w.alpha_override {
         let bytes = cx.file(0)?;
         let a = super::decode_image(&bytes, cx.budget())

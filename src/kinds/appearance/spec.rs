@@ -24,6 +24,9 @@ crate::choices!(pub CLUSTER_CHOICES: ClusterChoice {
 });
 crate::choices!(pub FLIPS: Flip { "random" => Flip::Random, "none" => Flip::None, "best_color" => Flip::BestColor });
 
+/// The largest quilting block of the unified textures, px.
+pub const BLOCK_MAX: f64 = 256.0;
+
 const fn p(name: &'static str, ty: Ty, default: Default, doc: &'static str) -> PropSpec {
     PropSpec { name, ty, default, doc }
 }
@@ -31,15 +34,15 @@ const fn p(name: &'static str, ty: Ty, default: Default, doc: &'static str) -> P
 static INTERSTICE: &[PropSpec] = &[
     p(
         "half_width",
-        Ty::Number(Unit::Length, Range { min: 0.5, max: 256.0 }),
+        Ty::Number(Unit::Length, Range { min: 0.5, max: 64.0 }),
         Default::Text("6 px"),
-        "Half the width of an interstice strip (the mortar band and some stone on each side).",
+        "Half the width of an interstice strip (the mortar band and some stone on each side), 0.5 to 64 px.",
     ),
     p(
         "extension",
-        Ty::Number(Unit::Length, Range { min: 0.0, max: 256.0 }),
+        Ty::Number(Unit::Length, Range { min: 0.0, max: 64.0 }),
         Default::Absent,
-        "How far a strip reaches past each end of its edge; default `half_width`.",
+        "How far a strip reaches past each end of its edge, 0 to 64 px; default `half_width`.",
     ),
     p(
         "flip",
@@ -52,15 +55,15 @@ static INTERSTICE: &[PropSpec] = &[
 static JUNCTION: &[PropSpec] = &[
     p(
         "branch_length",
-        Ty::Number(Unit::Length, Range { min: 0.5, max: 512.0 }),
+        Ty::Number(Unit::Length, Range { min: 0.5, max: 256.0 }),
         Default::Absent,
-        "Length of a star's branches (capped at 45 % of the edge); default twice the interstice half-width.",
+        "Length of a star's branches, 0.5 to 256 px (capped at 45 % of the edge); default twice the interstice half-width.",
     ),
     p(
         "candidates",
         Ty::Int(1, 64),
         Default::Text("5"),
-        "Nearest junctions by angles among which the colour heuristic picks.",
+        "Nearest junctions by angles among which the colour heuristic picks, 1 to 64.",
     ),
 ];
 
@@ -94,7 +97,7 @@ pub static SPEC: KindSpec = KindSpec {
             "clusters",
             Ty::Int(1, 10),
             Default::Absent,
-            "Number of colour clusters of regions (one unified texture each); default automatic (best silhouette, at most 10).",
+            "Number of colour clusters of regions (one unified texture each), 1 to 10; default automatic (best silhouette, at most 10).",
         ),
         p(
             "cluster_choice",
@@ -106,19 +109,19 @@ pub static SPEC: KindSpec = KindSpec {
             "shrink",
             Ty::Number(Unit::Length, Range { min: 0.0, max: 64.0 }),
             Default::Text("2 px"),
-            "Regions are cut out of the photo this far inside their outline, so no mortar gets in.",
+            "Regions are cut out of the photo this far inside their outline, so no mortar gets in; 0 to 64 px, and some region must be wider than twice it.",
         ),
         p(
             "texture_size",
-            Ty::Pixels(Range { min: 16.0, max: 4096.0 }),
+            Ty::Pixels(Range { min: 16.0, max: 2048.0 }),
             Default::Absent,
-            "Side of each unified texture; default from the cluster's area.",
+            "Side of each unified texture, 16 to 2048 px; default from the cluster's area (128 to 256 px). A texture is quilted in at most 64 × 64 blocks, so a large one needs a large `block`.",
         ),
         p(
             "block",
-            Ty::Pixels(Range { min: 4.0, max: 256.0 }),
+            Ty::Pixels(Range { min: 8.0, max: BLOCK_MAX }),
             Default::Text("24 px"),
-            "Quilting block of the unified textures.",
+            "Quilting block of the unified textures, 8 to 256 px (16 to 32 px suit most photos); halved for a cluster whose regions hold no block that large.",
         ),
         p(
             "alpha",
@@ -138,7 +141,7 @@ pub static SPEC: KindSpec = KindSpec {
             "resolution",
             Ty::Number(Unit::Plain, Range { min: 0.0625, max: 16.0 }),
             Default::Text("1"),
-            "Rendered pixels per structure pixel.",
+            "Rendered pixels per structure pixel, 0.0625 to 16; the render is held to the memory budget.",
         ),
         p("seed", Ty::Int(0, 1 << 53), Default::Absent, "An explicit seed instead of the one derived from the scene's."),
     ],

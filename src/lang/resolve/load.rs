@@ -32,7 +32,8 @@ pub trait Loader {
 /// A `..` cancels the component before it only where the operating system would agree:
 /// that component is a real directory (not a link, which the system follows first, nor a
 /// missing name, which makes the whole path fail). Elsewhere the `..` stays, so the read
-/// resolves, or fails, exactly as the system resolves it. `/..` is `/`.
+/// resolves, or fails, exactly as the system resolves it. `/..` is `/`; a path that cancels
+/// out entirely is `.`.
 pub fn normalize(p: &Path) -> PathBuf {
     let mut out = PathBuf::new();
     for c in p.components() {
@@ -62,6 +63,10 @@ pub fn normalize(p: &Path) -> PathBuf {
             },
             c => out.push(c),
         }
+    }
+    if out.as_os_str().is_empty() {
+        // `.` or `a/..`: the directory itself, which reads as one (not as a missing file).
+        out.push(".");
     }
     out
 }

@@ -208,7 +208,7 @@ impl Checker<'_> {
                 if options.contains(&name.as_str()) {
                     Some(Val::Enum(name.clone()))
                 } else {
-                    let mut d = Diagnostic::error(format!("`{name}` is not one of {}", ty.describe()))
+                    let mut d = Diagnostic::error(format!("`{name}` is not {}", ty.describe()))
                         .with_code("tessera::enum")
                         .with_label(v.span, "unknown option");
                     if let Some(s) = suggest(name, options.iter().copied()) {

@@ -5,13 +5,13 @@
 use serde::{Deserialize, Serialize};
 
 use super::alpha::{sample_alpha, AlphaError, AlphaParams};
-use super::interstice::{build_interstice_atlas, IntersticeParams};
-use super::junction::{build_junction_atlas, JunctionParams};
-use super::types::Point;
+use super::interstice::{build_interstice_atlas, interstice_atlas_size, IntersticeParams};
+use super::junction::{build_junction_atlas, junction_atlas_size, JunctionParams};
 use super::types::{
     AppearanceData, Clustering, IntersticeAtlas, IntersticeEntry, JunctionAtlas, JunctionEntry, Lab, Original,
     UnifiedTexture,
 };
+use super::types::{Mesh, Point};
 use super::unified::{self, analyse_interiors, originals, InteriorError, InteriorParams};
 use crate::raster::color::{lab_to_linear_rgb, linear_to_srgb};
 use crate::raster::Image;
@@ -194,6 +194,25 @@ impl Default for ContourParams {
     }
 }
 
+impl ContourParams {
+    fn interstice(&self) -> IntersticeParams {
+        IntersticeParams { half_width: self.half_width, extension: self.extension, ..IntersticeParams::default() }
+    }
+
+    fn junction(&self) -> JunctionParams {
+        JunctionParams { half_width: self.half_width, branch_len: self.branch_len, ..JunctionParams::default() }
+    }
+}
+
+/// The pixels of the two atlases [`contours`] cuts from a sample drawn as `mesh` (the
+/// interstice atlas's and the junction atlas's, packed), found without cutting them: what a
+/// caller holds to a memory budget before calling [`contours`].
+pub fn contour_atlas_pixels(mesh: &Mesh, params: &ContourParams) -> f64 {
+    let [iw, ih] = interstice_atlas_size(mesh, &params.interstice());
+    let [jw, jh] = junction_atlas_size(mesh, &params.junction());
+    iw as f64 * ih as f64 + jw as f64 * jh as f64
+}
+
 /// A2e–f: the alpha of the sample (the painted `alpha_override`, or automatic), then the
 /// interstice and junction atlases cut from it. `image` is RGB, sRGB-encoded, the size of
 /// the structure `sample` was drawn on.
@@ -209,14 +228,8 @@ pub fn contours(
     let alpha_params = AlphaParams { shrink: params.shrink, band, ..AlphaParams::default() };
     let alpha = sample_alpha(image, &sample.polygons, &alpha_params, alpha_override)?;
     let (interstices, junctions) = rayon::join(
-        || {
-            let p = IntersticeParams { half_width: w, extension: params.extension, ..IntersticeParams::default() };
-            build_interstice_atlas(image, &alpha, &sample.mesh, &p)
-        },
-        || {
-            let p = JunctionParams { half_width: w, branch_len: params.branch_len, ..JunctionParams::default() };
-            build_junction_atlas(image, &alpha, &sample.mesh, &p)
-        },
+        || build_interstice_atlas(image, &alpha, &sample.mesh, &params.interstice()),
+        || build_junction_atlas(image, &alpha, &sample.mesh, &params.junction()),
     );
     Ok(Contours { interstices, junctions, alpha })
 }

@@ -55,17 +55,9 @@ impl IntersticeParams {
 /// `alpha` its 1-channel alpha (same size; 1 = mortar), `mesh` its drawn structure. One
 /// entry per edge of `mesh_edges(mesh)`.
 pub fn build_interstice_atlas(image: &Image, alpha: &Image, mesh: &Mesh, params: &IntersticeParams) -> IntersticeAtlas {
-    let w = params.half_width.max(0.5);
-    let ext = params.extension().max(0.0);
+    let (w, ext) = (params.half_width.max(0.5), params.extension().max(0.0));
     let edges = mesh_edges(mesh);
-    let height = (2.0 * w).ceil() as usize;
-    let sizes: Vec<[usize; 2]> = edges
-        .iter()
-        .map(|&[a, b]| {
-            let l = dist(mesh.vertices[a], mesh.vertices[b]);
-            [((l + 2.0 * ext).ceil() as usize).max(1), height]
-        })
-        .collect();
+    let sizes = strip_sizes(mesh, &edges, params);
     let (atlas_size, positions) = shelf_pack(&sizes, params.padding);
     // Cut each strip on its own (in parallel), then paste in edge order.
     let strips: Vec<(Vec<f32>, f64, [f64; 3])> = edges
@@ -108,6 +100,25 @@ pub fn build_interstice_atlas(image: &Image, alpha: &Image, mesh: &Mesh, params:
     }
     entries.sort_by(|a, b| a.length.total_cmp(&b.length).then(a.edge.cmp(&b.edge)));
     IntersticeAtlas { image: atlas, entries, half_width: w, extension: ext }
+}
+
+/// Each edge's strip rectangle `[⌈ℓ + 2·ext⌉, ⌈2w⌉]` (at least one pixel long).
+fn strip_sizes(mesh: &Mesh, edges: &[[usize; 2]], params: &IntersticeParams) -> Vec<[usize; 2]> {
+    let (w, ext) = (params.half_width.max(0.5), params.extension().max(0.0));
+    let height = (2.0 * w).ceil() as usize;
+    edges
+        .iter()
+        .map(|&[a, b]| {
+            let l = dist(mesh.vertices[a], mesh.vertices[b]);
+            [((l + 2.0 * ext).ceil() as usize).max(1), height]
+        })
+        .collect()
+}
+
+/// The `[width, height]` of the atlas [`build_interstice_atlas`] makes for `mesh`, found
+/// without cutting a strip (so a caller can hold it to a memory budget first).
+pub fn interstice_atlas_size(mesh: &Mesh, params: &IntersticeParams) -> [usize; 2] {
+    shelf_pack(&strip_sizes(mesh, &mesh_edges(mesh), params), params.padding).0
 }
 
 /// The sample positions of a strip's rectangle corners, in the order top-left, top-right,
@@ -313,6 +324,7 @@ mod tests {
         let (s, painted, alpha) = sample(11);
         let p = IntersticeParams::default();
         let atlas = build_interstice_atlas(&painted.image, &alpha, &s.mesh, &p);
+        assert_eq!(interstice_atlas_size(&s.mesh, &p), [atlas.image.width, atlas.image.height]);
         let edges = mesh_edges(&s.mesh);
         assert_eq!(atlas.entries.len(), edges.len());
         let mut seen: Vec<usize> = atlas.entries.iter().map(|e| e.edge).collect();

@@ -191,16 +191,7 @@ pub fn build_junction_atlas(image: &Image, alpha: &Image, mesh: &Mesh, params: &
         .map(|(vi, b)| {
             let c = mesh.vertices[vi];
             let (directions, star) = vertex_star(mesh, vi, b, w, branch_len, params.cap);
-            let (mut x0, mut y0, mut x1, mut y1) = (c[0], c[1], c[0], c[1]);
-            for p in &star {
-                x0 = x0.min(p[0]);
-                y0 = y0.min(p[1]);
-                x1 = x1.max(p[0]);
-                y1 = y1.max(p[1]);
-            }
-            let origin = [x0.floor() as i64, y0.floor() as i64];
-            let size =
-                [((x1.ceil() as i64 - origin[0]) as usize).max(1), ((y1.ceil() as i64 - origin[1]) as usize).max(1)];
+            let (origin, size) = star_box(c, &star);
             let [sw, sh] = size;
             let mut px = vec![0f32; 4 * sw * sh];
             let (mut mortar, mut all) = (Vec::new(), Vec::new());
@@ -250,6 +241,34 @@ pub fn build_junction_atlas(image: &Image, alpha: &Image, mesh: &Mesh, params: &
         });
     }
     JunctionAtlas { image: atlas, entries, half_width: w, branch_len }
+}
+
+/// The pixel box a star is cut in: its top-left pixel and size (at least one pixel), around
+/// the centre `c` and the outline `star`.
+fn star_box(c: Point, star: &[Point]) -> ([i64; 2], [usize; 2]) {
+    let (mut x0, mut y0, mut x1, mut y1) = (c[0], c[1], c[0], c[1]);
+    for p in star {
+        x0 = x0.min(p[0]);
+        y0 = y0.min(p[1]);
+        x1 = x1.max(p[0]);
+        y1 = y1.max(p[1]);
+    }
+    let origin = [x0.floor() as i64, y0.floor() as i64];
+    let size = [((x1.ceil() as i64 - origin[0]) as usize).max(1), ((y1.ceil() as i64 - origin[1]) as usize).max(1)];
+    (origin, size)
+}
+
+/// The `[width, height]` of the atlas [`build_junction_atlas`] makes for `mesh`, found
+/// without cutting a star (so a caller can hold it to a memory budget first).
+pub fn junction_atlas_size(mesh: &Mesh, params: &JunctionParams) -> [usize; 2] {
+    let w = params.half_width.max(0.5);
+    let sizes: Vec<[usize; 2]> = vertex_branches(mesh)
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| !b.is_empty())
+        .map(|(vi, b)| star_box(mesh.vertices[vi], &vertex_star(mesh, vi, b, w, params.branch_len(), params.cap).1).1)
+        .collect();
+    shelf_pack(&sizes, params.padding).0
 }
 
 /// One rotated and/or mirrored angle tuple of an atlas entry.
@@ -512,6 +531,8 @@ mod tests {
     #[test]
     fn f26_atlas_entries_and_tuple_counts() {
         let (s, _, _, atlas) = sample(11);
+        let size = junction_atlas_size(&s.mesh, &JunctionParams::default());
+        assert_eq!(size, [atlas.image.width, atlas.image.height]);
         let branches = vertex_branches(&s.mesh);
         assert_eq!(atlas.entries.len(), branches.iter().filter(|b| !b.is_empty()).count());
         let index = JunctionIndex::new(&atlas);

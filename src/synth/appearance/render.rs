@@ -5,7 +5,14 @@
 //! Anti-aliasing is 4×4 supersampled coverage with per-sample compositing: each pixel keeps
 //! sixteen transmittances, triangles are visited front to back, a triangle shades once per
 //! pixel (bilinear texture sample at the pixel centre through its affine map) and adds
-//! `alpha · colour` weighted by the transmittance of the samples it covers. Samples exactly on
+//! `alpha · colour` weighted by the transmittance of the samples it covers.
+//!
+//! Textures with alpha (the interstice and junction atlases) are filtered **premultiplied**:
+//! the four texels are weighted by their own alpha as well as their bilinear weights, so a
+//! transparent texel adds nothing, whatever colour it carries. The atlases keep the photo's
+//! stone colour (strips) or black (padding, outside a star) under alpha 0; filtering them
+//! straight would mix that colour into every texel at the edge of the mortar and show it as a
+//! fringe along the strips and stars. Samples exactly on
 //! a shared edge belong to one side only (a tie rule antisymmetric in the edge's direction), so
 //! pieces that tile the plane leave no seam. Rows are rendered in bands in parallel; each
 //! pixel's arithmetic is in a fixed order, so the image is bit-identical for any thread count.
@@ -157,7 +164,10 @@ fn affine(v: [[f64; 2]; 3], uv: [[f64; 2]; 3]) -> Option<[[f64; 3]; 2]> {
     Some(a)
 }
 
-/// Bilinear sample (pixel centres at +0.5, edges clamped): RGB and alpha (1 without one).
+/// Bilinear sample (pixel centres at +0.5, edges clamped), premultiplied: the colour times
+/// alpha, and alpha (1 without an alpha channel, when the colour is the plain bilinear mean).
+/// Each texel's colour is weighted by its alpha (clamped to `[0, 1]`) before the texels are
+/// summed, so transparent texels lend no colour to their neighbours.
 #[inline]
 fn sample(img: &Image, u: f64, v: f64) -> [f32; 4] {
     let x = u - 0.5;
@@ -179,9 +189,16 @@ fn sample(img: &Image, u: f64, v: f64) -> [f32; 4] {
     let yb = (y0 + 1).clamp(0, hm) as usize;
     let plane = img.width * img.height;
     let (i00, i10, i01, i11) = (ya * img.width + xa, ya * img.width + xb, yb * img.width + xa, yb * img.width + xb);
-    let (w00, w10, w01, w11) = ((1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy);
+    let (mut w00, mut w10, mut w01, mut w11) = ((1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy);
     let mut out = [1.0f32; 4];
-    for (c, o) in out.iter_mut().enumerate().take(img.channels.min(4)) {
+    if img.channels >= 4 {
+        // Premultiply: fold each texel's alpha into its weight.
+        let a = &img.data[3 * plane..4 * plane];
+        let al = |i: usize| a[i].clamp(0.0, 1.0);
+        (w00, w10, w01, w11) = (w00 * al(i00), w10 * al(i10), w01 * al(i01), w11 * al(i11));
+        out[3] = w00 + w10 + w01 + w11;
+    }
+    for (c, o) in out.iter_mut().enumerate().take(3) {
         let p = &img.data[c * plane..(c + 1) * plane];
         *o = p[i00] * w00 + p[i10] * w10 + p[i01] * w01 + p[i11] * w11;
     }
@@ -289,15 +306,15 @@ fn render_band(
                 let v = t.uv[1][0] * cx + t.uv[1][1] * cy + t.uv[1][2];
                 if slot[p] == u32::MAX && mask == 0xFFFF {
                     let tp = uniform[p];
+                    // Premultiplied: `c` is already colour × alpha.
                     let c = sample(img, u, v);
                     let a = c[3].clamp(0.0, 1.0);
                     if a <= 0.0 {
                         continue;
                     }
-                    let k = a * tp;
-                    acc[p][0] += k * c[0];
-                    acc[p][1] += k * c[1];
-                    acc[p][2] += k * c[2];
+                    acc[p][0] += tp * c[0];
+                    acc[p][1] += tp * c[1];
+                    acc[p][2] += tp * c[2];
                     uniform[p] = tp * (1.0 - a);
                     if uniform[p] <= 0.0 {
                         opaque[p] = true;
@@ -323,7 +340,7 @@ fn render_band(
                 if a <= 0.0 {
                     continue;
                 }
-                let k = a * tsum * (1.0 / 16.0);
+                let k = tsum * (1.0 / 16.0);
                 acc[p][0] += k * c[0];
                 acc[p][1] += k * c[1];
                 acc[p][2] += k * c[2];
@@ -347,4 +364,67 @@ fn render_band(
         cov.push(1.0 - tm);
     }
     (rgb, cov)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::appearance::types::{Corner, Layer, Piece};
+
+    /// A square of `side` output pixels at the origin showing the texture `uv_per_px` texels
+    /// per pixel.
+    fn square(side: f64, uv_per_px: f64) -> Piece {
+        let p = [[0.0, 0.0], [side, 0.0], [side, side], [0.0, side]];
+        let c = p.map(|q| Corner { pos: q, uv: [q[0] * uv_per_px, q[1] * uv_per_px] });
+        Piece {
+            layer: Layer::Interstice,
+            texture: TextureId::Interstices,
+            owner: 0,
+            triangles: vec![[c[0], c[1], c[2]], [c[0], c[2], c[3]]],
+        }
+    }
+
+    /// A strip whose transparent texels carry a bright red (as the atlases carry the photo's
+    /// stone under alpha 0) lends none of it to the composite: across the edge between
+    /// transparent and opaque grey texels, every pixel is the grey over the background by
+    /// the filtered alpha. Straight bilinear filtering mixed the red into the edge texels.
+    #[test]
+    fn transparent_texels_lend_no_colour_to_the_composite() {
+        let tex = Image::from_fn(4, 4, 4, |x, _, c| match (x < 2, c) {
+            (true, 0) => 1.0,
+            (true, _) => 0.0,
+            (false, 3) => 1.0,
+            (false, _) => 0.5,
+        });
+        let d = Dressing { pieces: vec![square(32.0, 0.125)], ..Default::default() };
+        let params = RenderParams { width: 32, height: 32, scale: 1.0, background: [0.0, 0.0, 1.0] };
+        let out = render_with(&d, |_| Some(&tex), &params);
+        let mut edge = 0;
+        for y in 0..32 {
+            for x in 0..32 {
+                let a = out.coverage.get(x, y, 0);
+                let [r, g, b] = [0, 1, 2].map(|c| out.color.get(x, y, c));
+                edge += usize::from(a > 0.01 && a < 0.99);
+                assert!((r - g).abs() < 1e-6, "red leaks at ({x}, {y}): {r} {g} {b}, alpha {a}");
+                assert!((r - 0.5 * a).abs() < 1e-5, "({x}, {y}): {r} for alpha {a}");
+                assert!((b - (0.5 * a + (1.0 - a))).abs() < 1e-5, "({x}, {y}): {b} for alpha {a}");
+            }
+        }
+        assert!(edge >= 32, "the test crosses the alpha edge ({edge} partial pixels)");
+    }
+
+    /// Premultiplying changes nothing where the texels are opaque: a fully opaque RGBA texture
+    /// renders as its RGB channels (to rounding: its filtered alpha sums four weights).
+    #[test]
+    fn opaque_rgba_renders_as_its_rgb() {
+        let rgb = Image::from_fn(5, 5, 3, |x, y, c| ((x * 7 + y * 3 + c) % 11) as f32 / 10.0);
+        let rgba = Image::from_fn(5, 5, 4, |x, y, c| if c == 3 { 1.0 } else { rgb.get(x, y, c) });
+        let d = Dressing { pieces: vec![square(20.0, 0.23)], ..Default::default() };
+        let params = RenderParams { width: 24, height: 24, scale: 1.0, background: [0.1, 0.2, 0.3] };
+        let a = render_with(&d, |_| Some(&rgb), &params);
+        let b = render_with(&d, |_| Some(&rgba), &params);
+        for (x, y) in a.color.data.iter().zip(&b.color.data).chain(a.coverage.data.iter().zip(&b.coverage.data)) {
+            assert!((x - y).abs() < 1e-6, "{x} vs {y}");
+        }
+    }
 }

@@ -2,6 +2,12 @@
 //! texture made of the cluster's extracts, then a texture quilted from blocks that each lie
 //! inside one region of the cluster, steered by that guide ([references: frasson §4.1.2]).
 //!
+//! **Bounded work.** Quilting time grows with the number of blocks (each one searches the
+//! whole pallet), so a texture is at most [`UnifiedParams::max_grid`] blocks on a side (64 ×
+//! 64 by default): an explicit `size` needing more is an [`InteriorError::TooManyBlocks`]; the
+//! area rule's side is lowered to fit instead (which only happens when the regions hold no
+//! block larger than a few pixels, so the block was halved).
+//!
 //! **Guide (A2c).** The cluster's extracts are thrown at random offsets onto an
 //! empty square (every extract once per round, rounds in a seeded shuffled order; a throw's
 //! centre is uniform over the square) until at least `coverage` of it is covered; later
@@ -67,6 +73,8 @@ pub struct UnifiedParams {
     pub tolerance: f32,
     /// Candidate top-left positions are multiples of this stride in the packed sample.
     pub candidate_stride: usize,
+    /// At most this many blocks along each side of a texture (see the module doc).
+    pub max_grid: usize,
 }
 
 impl Default for UnifiedParams {
@@ -84,6 +92,7 @@ impl Default for UnifiedParams {
             max_throws: 10_000,
             tolerance: 0.0,
             candidate_stride: 1,
+            max_grid: 64,
         }
     }
 }
@@ -97,6 +106,35 @@ impl UnifiedParams {
         let raw = (self.area_factor.max(0.0) * area as f64).sqrt().ceil() as usize;
         let raw = raw.div_ceil(8) * 8;
         raw.clamp(self.min_size.max(1), self.max_size.max(self.min_size).max(1))
+    }
+
+    /// The overlap used with blocks of `block` px.
+    pub fn overlap_for(&self, block: usize) -> usize {
+        if block <= 1 {
+            0
+        } else {
+            self.overlap.unwrap_or_else(|| default_overlap(block)).min(block - 1)
+        }
+    }
+
+    /// Blocks along each side of a `side` px texture quilted in `block` px blocks (the quilting
+    /// grid: one block, then one every `block − overlap` px until the side is covered).
+    pub fn grid(&self, side: usize, block: usize) -> usize {
+        let block = block.max(1);
+        1 + side.saturating_sub(block).div_ceil(block - self.overlap_for(block))
+    }
+
+    /// The largest side whose grid of `block` px blocks is at most [`UnifiedParams::max_grid`]
+    /// on a side.
+    pub fn max_side(&self, block: usize) -> usize {
+        let block = block.max(1);
+        block + (self.max_grid.max(1) - 1) * (block - self.overlap_for(block))
+    }
+
+    /// The smallest block (from `from` up to `side`) whose grid on a `side` px texture fits
+    /// [`UnifiedParams::max_grid`], if any.
+    pub fn min_block(&self, side: usize, from: usize) -> Option<usize> {
+        (from.max(1)..=side.max(1)).find(|&b| self.grid(side, b) <= self.max_grid.max(1))
     }
 }
 
@@ -176,6 +214,9 @@ pub enum InteriorError {
     NoInteriors { regions: usize, shrink: f64 },
     /// Quilting refused its inputs (should not happen with valid parameters).
     Quilt { cluster: usize, error: QuiltError },
+    /// An explicit texture side needs more than `max_grid` blocks on a side with the block
+    /// its cluster's regions hold (`block`; `wanted` was asked for, and halved when smaller).
+    TooManyBlocks { cluster: usize, side: usize, block: usize, wanted: usize, grid: usize, max_grid: usize },
 }
 
 impl std::fmt::Display for InteriorError {
@@ -186,6 +227,16 @@ impl std::fmt::Display for InteriorError {
                 "none of the {regions} region(s) has a pixel {shrink} px inside its outline: use a smaller shrink"
             ),
             InteriorError::Quilt { cluster, error } => write!(f, "unified texture of cluster {cluster}: {error}"),
+            InteriorError::TooManyBlocks { cluster, side, block, wanted, grid, max_grid } => {
+                write!(
+                    f,
+                    "the unified texture of cluster {cluster}, {side} px on a side in {block} px blocks, takes {grid} × {grid} blocks; at most {max_grid} × {max_grid} are allowed"
+                )?;
+                if block < wanted {
+                    write!(f, " (its regions hold no {wanted} px block, so the block was halved to {block} px)")?;
+                }
+                Ok(())
+            }
         }
     }
 }
@@ -223,10 +274,12 @@ pub fn originals(polygons: &[Vec<Point>], interiors: &Interiors) -> Vec<Original
         .collect()
 }
 
-/// One unified texture per cluster of `clustering` (over `extracts`), in cluster order. The
-/// clusters are quilted in parallel; each from its own named streams, so the result does not
-/// depend on the thread count. [`cluster`] keeps every cluster non-empty; a cluster without
-/// members would get an error (no block position).
+/// One unified texture per cluster of `clustering` (over `extracts`), in cluster order. Every
+/// cluster's pallet and grid are settled before any is quilted, so a refused grid costs no
+/// quilting; the clusters are then quilted in parallel, each from its own named streams, so
+/// the result (and which error is reported: the first cluster's) does not depend on the
+/// thread count. [`cluster`] keeps every cluster non-empty; a cluster without members would
+/// get an error (no block position).
 pub fn unified_textures(
     image: &Image,
     extracts: &[Extract],
@@ -234,15 +287,18 @@ pub fn unified_textures(
     params: &UnifiedParams,
     seed: u64,
 ) -> Result<Vec<ClusterTexture>, InteriorError> {
-    (0..clustering.k)
+    let members: Vec<Vec<&Extract>> = (0..clustering.k)
+        .map(|c| extracts.iter().zip(&clustering.assignment).filter(|(_, &a)| a == c).map(|(e, _)| e).collect())
+        .collect();
+    let plans: Vec<Result<Plan, InteriorError>> =
+        members.par_iter().enumerate().map(|(c, m)| plan_texture(image, m, c, params)).collect();
+    let plans = plans.into_iter().collect::<Result<Vec<Plan>, InteriorError>>()?;
+    let textures: Vec<Result<ClusterTexture, InteriorError>> = plans
         .into_par_iter()
-        .map(|c| {
-            let members: Vec<&Extract> =
-                extracts.iter().zip(&clustering.assignment).filter(|(_, &a)| a == c).map(|(e, _)| e).collect();
-            unified_texture(image, &members, c, params, seed)
-                .map_err(|error| InteriorError::Quilt { cluster: c, error })
-        })
-        .collect()
+        .zip(members.par_iter())
+        .map(|(plan, m)| quilt_texture(image, m, plan, params, seed))
+        .collect();
+    textures.into_iter().collect()
 }
 
 /// The unified texture of one cluster from its member extracts (at least one).
@@ -252,12 +308,26 @@ pub fn unified_texture(
     cluster: usize,
     params: &UnifiedParams,
     seed: u64,
-) -> Result<ClusterTexture, QuiltError> {
-    let area: usize = members.iter().map(|e| e.pixels).sum();
-    let side = params.side_for(area);
-    let mut grng = Rng::derived(seed, "appearance.unified", &format!("guide{cluster}"));
-    let guide = build_guide(image, members, side, params, &mut grng);
-    // The pallet, halving the block until some region holds one.
+) -> Result<ClusterTexture, InteriorError> {
+    quilt_texture(image, members, plan_texture(image, members, cluster, params)?, params, seed)
+}
+
+/// A cluster's texture before quilting: its pallet, block and side.
+struct Plan {
+    cluster: usize,
+    pallet: Pallet,
+    block: usize,
+    side: usize,
+}
+
+/// The pallet (the block halved until some region holds one) and the side of a cluster's
+/// texture, its grid of blocks bounded (see the module doc).
+fn plan_texture(
+    image: &Image,
+    members: &[&Extract],
+    cluster: usize,
+    params: &UnifiedParams,
+) -> Result<Plan, InteriorError> {
     let mut block = params.block.max(1);
     let pallet = loop {
         let p = build_pallet(image, members, block, params.candidate_stride.max(1));
@@ -267,9 +337,40 @@ pub fn unified_texture(
         block /= 2;
     };
     let Some(pallet) = pallet else {
-        return Err(QuiltError::NoCandidates { sample: 0 });
+        return Err(InteriorError::Quilt { cluster, error: QuiltError::NoCandidates { sample: 0 } });
     };
-    let overlap = if block == 1 { 0 } else { params.overlap.unwrap_or_else(|| default_overlap(block)).min(block - 1) };
+    let area: usize = members.iter().map(|e| e.pixels).sum();
+    let mut side = params.side_for(area);
+    let grid = params.grid(side, block);
+    if grid > params.max_grid.max(1) {
+        if params.size.is_some() {
+            return Err(InteriorError::TooManyBlocks {
+                cluster,
+                side,
+                block,
+                wanted: params.block.max(1),
+                grid,
+                max_grid: params.max_grid.max(1),
+            });
+        }
+        side = params.max_side(block);
+    }
+    Ok(Plan { cluster, pallet, block, side })
+}
+
+/// The guide and quilted texture of a planned cluster.
+fn quilt_texture(
+    image: &Image,
+    members: &[&Extract],
+    plan: Plan,
+    params: &UnifiedParams,
+    seed: u64,
+) -> Result<ClusterTexture, InteriorError> {
+    let Plan { cluster, pallet, block, side } = plan;
+    let quilt_error = |error| InteriorError::Quilt { cluster, error };
+    let overlap = params.overlap_for(block);
+    let mut grng = Rng::derived(seed, "appearance.unified", &format!("guide{cluster}"));
+    let guide = build_guide(image, members, side, params, &mut grng);
     let mut qp = QuiltParams::new(
         side,
         side,
@@ -284,7 +385,7 @@ pub fn unified_texture(
         allowed: vec![Some(&pallet.allowed)],
         ..QuiltOptions::default()
     };
-    let result = quilt_with(&[&pallet.image], &qp, &options)?;
+    let result = quilt_with(&[&pallet.image], &qp, &options).map_err(quilt_error)?;
     let n = side * side;
     let mut source_pixel = vec![u32::MAX; n];
     let mut source_region = vec![u32::MAX; n];
@@ -777,6 +878,35 @@ mod tests {
         let other = best_ncc(&it.textures[1 - leafy[0]].texture.image, &tpl);
         eprintln!("leaf NCC {ncc:.4} in its cluster's texture, {other:.4} in the other; analysis {secs:.3} s");
         assert!(ncc >= 0.8, "leaf NCC {ncc}");
+    }
+
+    /// The grid of blocks is bounded: an explicit side needing more than `max_grid` blocks on
+    /// a side is refused before any quilting; the area rule's side is lowered to fit.
+    #[test]
+    fn the_block_grid_is_bounded() {
+        let (s, painted) = painted_wall(4);
+        let polys = s.polygons();
+        let regions = all_regions(&s);
+        let huge = UnifiedParams { size: Some(2048), block: 8, ..UnifiedParams::default() };
+        assert_eq!(huge.grid(2048, 8), 1 + 2040usize.div_ceil(7));
+        assert_eq!(huge.max_side(8), 8 + 63 * 7);
+        assert_eq!(huge.grid(huge.max_side(8), 8), 64);
+        assert_eq!(huge.grid(huge.max_side(8) + 1, 8), 65);
+        let b = huge.min_block(2048, 8).unwrap();
+        assert!(huge.grid(2048, b) <= 64 && huge.grid(2048, b - 1) > 64, "{b}");
+        let params = InteriorParams { clusters: Clusters::Fixed(1), unified: huge, ..InteriorParams::default() };
+        let t0 = Instant::now();
+        let err = analyse_interiors(&painted.image, &polys, &regions, &params, 1).unwrap_err();
+        match err {
+            InteriorError::TooManyBlocks { side: 2048, block: 8, grid: 293, max_grid: 64, .. } => {}
+            other => panic!("{other:?}"),
+        }
+        assert!(t0.elapsed().as_secs_f64() < 5.0, "refused before quilting");
+        // The area rule's side is lowered to what 4 × 4 blocks of 24 px cover.
+        let small = UnifiedParams { max_grid: 4, ..UnifiedParams::default() };
+        let params = InteriorParams { clusters: Clusters::Fixed(1), unified: small, ..InteriorParams::default() };
+        let it = analyse_interiors(&painted.image, &polys, &regions, &params, 1).unwrap();
+        assert_eq!(it.textures[0].texture.image.width, 24 + 3 * 20);
     }
 
     /// Same seed, same result; rayon pools of 1 and 2 threads give identical interiors.
