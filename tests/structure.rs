@@ -855,3 +855,48 @@ fn issue13_painted_bricks_with_their_mortar_are_coursed() {
         assert!(polys.len() > 40, "mortar {mortar}: {} regions", polys.len());
     }
 }
+
+/// `samples/photos/paving_structure.png` (one colour per sett) as label ids.
+fn paving_labels() -> (Vec<u32>, usize, usize) {
+    let bytes = std::fs::read(common::repo().join("samples/photos/paving_structure.png")).expect("sample");
+    let img = tessera::raster::io::decode(&bytes).expect("png");
+    let (w, h) = (img.width, img.height);
+    let n = w * h;
+    let mut map = std::collections::HashMap::new();
+    let ids = (0..n)
+        .map(|i| {
+            let key = (0..3).fold(0u32, |k, c| k << 8 | (img.data[c * n + i] * 255.0).round() as u32);
+            let next = map.len() as u32;
+            *map.entry(key).or_insert(next)
+        })
+        .collect();
+    (ids, w, h)
+}
+
+#[test]
+fn issue13_the_paving_photo_regrows_in_courses() {
+    // The real sample: granite setts in rough courses (rows that tilt and bend a little,
+    // setts of varying height, a segmentation with merged pairs and fragments on the border).
+    let (ids, w, h) = paving_labels();
+    let sample = analyse_label_image(&ids, w, h, 1.0, &StatsConfig::default()).expect("analyses");
+    let c = &sample.courses;
+    eprintln!(
+        "paving sample: detector score {:.3}, {} courses, heights {:?}, {} lengths, {:.1} % of head joints staggered",
+        c.score,
+        c.courses.len(),
+        c.heights.iter().map(|h| h.round()).collect::<Vec<_>>(),
+        c.lengths.len(),
+        100.0
+            * c.stagger.iter().filter(|&&s| s > tessera::synth::structure::analysis::courses::STRAIGHT_JOINT).count()
+                as f64
+            / c.stagger.len().max(1) as f64
+    );
+    assert!(c.layered, "score {}", c.score);
+    let p = Project::new(&[("scene.tess", &coursed_scene("paving.png", 1152, 768, ""))]);
+    p.write_bytes("paving.png", &std::fs::read(common::repo().join("samples/photos/paving_structure.png")).unwrap());
+    for seed in ["4", "5", "6", "7"] {
+        p.tessera(&["-q", "build", "--seed", seed, "scene.tess"]).ok();
+        let f = course_figures(c, &p.read("out/scene/mesh.json"));
+        assert_keeps_courses(&format!("paving seed {seed}"), &f);
+    }
+}

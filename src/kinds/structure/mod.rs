@@ -205,7 +205,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Shaped>, Diagnostic> {
     let maps = MapInputs::add(p, props, &mut inputs, s1_maps);
     let sampling =
         Sampling { analysis, surface: surface_in, maps, w, h, seed, courses_seed, options: SampleOptions::from(props) };
-    let s1 = FnStage::keyed("structure.sample", 5, sampling, sample_generators);
+    let s1 = FnStage::keyed("structure.sample", 6, sampling, sample_generators);
     let s1 = p.add(format!("structure {} (sampling)", d.name), s1, inputs, vec![]);
 
     // S2: Lloyd; with edits, S1e applies them to the relaxed generators and Lloyd runs
@@ -278,7 +278,7 @@ fn plan_analysis(
     path: std::path::PathBuf,
     span: crate::lang::source::Span,
 ) -> Handle<SampleStructure> {
-    p.add(label, FnStage::keyed("structure.analyse", 4, config, analyse), Inputs::new(), vec![(path, span)])
+    p.add(label, FnStage::keyed("structure.analyse", 5, config, analyse), Inputs::new(), vec![(path, span)])
 }
 
 /// A1 with the default settings (border regions left out of the statistics, polygon
@@ -581,7 +581,7 @@ fn sample_generators(cx: &RunCx, s: &Sampling) -> Result<Generators, StageError>
         spec::Layout::Courses if coursed.layered => true,
         spec::Layout::Courses => {
             return Err(StageError::new(format!(
-                "`layout = courses` but the sample has no courses: {:.0} % of its interior regions lie in a row of regions sharing a top and a bottom line ({} such rows), the detector asks {:.0} % in {} rows",
+                "`layout = courses` but the sample has no courses: {:.0} % of its interior regions lie in a course, a row of side-by-side regions sharing their top and bottom lines ({} such rows), the detector asks {:.0} % in {} rows",
                 coursed.score * 100.0,
                 coursed.courses.len(),
                 courses::LAYERED_SCORE * 100.0,

@@ -4,11 +4,13 @@
 //! above as the sample's are [references: frasson §3.8.1]
 //!
 //! Heights and lengths are drawn from the sample's measured values (rounded to whole pixels at
-//! the structure's `scale`; heights dealt in shuffled rounds of all the sample's, lengths a
-//! bootstrap), so the wall varies exactly as much as the sample does and no more. Each course starts with its first head joint at a stagger drawn from the
-//! sample's, so a sample of equal bricks regrows in its own bond; later joints that would
-//! continue a joint of the course above (nearer than the sample's tenth-percentile stagger,
-//! at most a fifth of the mean length) are drawn again, up to eight times. At the target's
+//! the structure's `scale`; heights dealt in shuffled rounds of all the sample's — the first
+//! course, cut by the target's top, gives its height back — lengths a bootstrap), so the
+//! wall varies exactly as much as the sample does and no more. Each course starts with its
+//! first head joint at a stagger drawn from the sample's, so a sample of equal bricks regrows
+//! in its own bond; later joints that would continue a joint of the course above (nearer
+//! than the sample's tenth-percentile stagger, at most a fifth of the mean length) are drawn
+//! again, up to eight times. At the target's
 //! border a course or brick is cut, but never to a sliver: one under a quarter of its size
 //! (or 3 px) joins its neighbour.
 //!
@@ -102,8 +104,13 @@ pub fn layout_courses(w: usize, h: usize, courses: &CourseAnalysis, scale: f64, 
     let mut bricks = Vec::new();
     let mut heights = Deck::new(heights);
     let first_h = heights.deal(scale, 1.0, rng);
-    // The first course shows at least a quarter of its height.
+    // The first course shows at least a quarter of its height. Cut by the target's top, it
+    // gives its height back to the deck (the next course takes it), so the whole courses deal
+    // the sample's heights in whole rounds.
     let mut y = -(rng.next_f64() * 0.75 * first_h).floor();
+    if y < 0.0 {
+        heights.next -= 1;
+    }
     let mut h_k = first_h;
     // The previous course's boundaries (its first ≤ 0, its last ≥ w).
     let mut above: Vec<f64> = Vec::new();
