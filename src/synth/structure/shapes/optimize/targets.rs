@@ -92,7 +92,8 @@ impl Associator {
                     return (poly, Some(c.clone()));
                 }
                 let hint = cache[r].first().and_then(|c| c.association.as_ref()).map(|a| a.original);
-                let (association, msg) = associate_one(r, &poly, shapes, &aparams, hint, priors.get(r).copied().flatten());
+                let (association, msg) =
+                    associate_one(r, &poly, shapes, &aparams, hint, priors.get(r).copied().flatten());
                 (poly, Some(Cached { poly: Vec::new(), association, msg }))
             })
             .collect();

@@ -40,13 +40,21 @@ fn f16_case(s: &StandIn) {
         .collect();
     let params = ShapeParams::default();
     let mut invalid = Vec::new();
-    let res =
-        optimize_shapes_observed(&mesh, &fixed, &border, (w as f64, h as f64), &originals, &[], &params, |k, v, regions| {
+    let res = optimize_shapes_observed(
+        &mesh,
+        &fixed,
+        &border,
+        (w as f64, h as f64),
+        &originals,
+        &[],
+        &params,
+        |k, v, regions| {
             let m = Mesh { vertices: v.to_vec(), regions: regions.to_vec() };
             if let Err(e) = check_mesh(&m) {
                 invalid.push((k, e));
             }
-        });
+        },
+    );
     assert!(invalid.is_empty(), "invalid iterations: {invalid:?}");
     check_mesh(&res.mesh).expect("valid final mesh");
     assert_eq!(res.mesh.regions.len(), mesh.regions.len());
