@@ -4,24 +4,15 @@
 //! load the outputs' artifacts, compare with the files on disk), and the whole CLI process
 //! as a user runs it (`tessera build scene -q`), process start-up included.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::copy_dir;
 use criterion::{criterion_group, criterion_main, Criterion};
 use tessera::project::Project;
-
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let target = to.join(e.file_name());
-        if e.file_type().unwrap().is_dir() {
-            copy_dir(&e.path(), &target);
-        } else {
-            std::fs::copy(e.path(), target).unwrap();
-        }
-    }
-}
 
 fn workspace() -> tempfile::TempDir {
     let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR"));

@@ -3,8 +3,12 @@
 //! output, as `tessera build` runs them. The samples are the painted stand-ins (512×384,
 //! 512×448) and the segmented ambientCG photograph (576²). Target: under 1 s each on 2 cores.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::copy_dir;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use tessera::project::Project;
 
@@ -15,19 +19,6 @@ const SAMPLES: [(&str, &str, &str, usize, usize); 4] = [
     ("wall_regular", "standins/wall_regular_photo.png", "standins/wall_regular.json", 512, 384),
     ("paving", "photos/paving.png", "photos/paving_structure.png", 576, 576),
 ];
-
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let target = to.join(e.file_name());
-        if e.file_type().unwrap().is_dir() {
-            copy_dir(&e.path(), &target);
-        } else {
-            std::fs::copy(e.path(), target).unwrap();
-        }
-    }
-}
 
 fn workspace() -> tempfile::TempDir {
     let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR"));

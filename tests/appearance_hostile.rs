@@ -8,7 +8,7 @@ mod common;
 
 use std::time::Duration;
 
-use common::{repo, run_within, Project, Run};
+use common::{flat, repo, run_within, Project, Run};
 
 const PHOTO: &str = "samples/standins/wall_random_photo.png";
 const STRUCTURE: &str = "samples/standins/wall_random.json";
@@ -22,10 +22,9 @@ fn project(scene: &str) -> Project {
     p
 }
 
-/// The scene of `tests/appearance.rs` with `props` (one per line) added to the appearance,
-/// which dresses `on`.
-fn scene(on: &str, props: &[&str]) -> String {
-    let props: String = props.iter().map(|p| format!("  {p}\n")).collect();
+/// The head every scene here shares: the sample (`image` line included or not), the plane
+/// and the structure `layout` with `structure_props` (one per line, each ending in `\n`).
+fn head(image_line: &str, structure_props: &str) -> String {
     format!(
         r#"scene {{
   seed = 3
@@ -33,8 +32,7 @@ fn scene(on: &str, props: &[&str]) -> String {
 }}
 
 sample stones {{
-  image = "wall_random_photo.png"
-  structure = "wall_random.json"
+{image_line}  structure = "wall_random.json"
 }}
 
 surface wall {{
@@ -45,8 +43,18 @@ structure layout {{
   from = stones
   on = wall
   scale = 0.6
-}}
+{structure_props}}}
+"#
+    )
+}
 
+/// The scene of `tests/appearance.rs` with `props` (one per line) added to the appearance,
+/// which dresses `on`.
+fn scene(on: &str, props: &[&str]) -> String {
+    let props: String = props.iter().map(|p| format!("  {p}\n")).collect();
+    let head = head("  image = \"wall_random_photo.png\"\n", "");
+    format!(
+        r#"{head}
 appearance dressed {{
   from = stones
   on = {on}
@@ -80,11 +88,6 @@ fn assert_label_at(err: &str, line: &str, value: &str) {
     let under: Vec<char> = lines.get(i + 1).map(|l| l.chars().collect()).unwrap_or_default();
     let start = under.iter().position(|&c| matches!(c, '─' | '┬' | '▲'));
     assert_eq!(start, Some(column), "the label does not start under `{value}`:\n{err}");
-}
-
-/// Stderr with miette's wrapping undone: one line, single spaces, no gutter bars.
-fn flat(err: &str) -> String {
-    err.replace(['│', '\n'], " ").split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// A build of `scene` (plus `args`) that must fail fast, with `message` and a label under
@@ -319,26 +322,9 @@ fn odd_alpha_paths_are_refused_at_the_path() {
 
 /// A structure-only sample, its structure and a map of its regions with `args`, at `size`.
 fn regions_scene(args: &str, size: &str, structure_props: &str) -> String {
+    let head = head("", structure_props);
     format!(
-        r#"scene {{
-  seed = 3
-  size = 192 x 128
-}}
-
-sample stones {{
-  structure = "wall_random.json"
-}}
-
-surface wall {{
-  plane = 192 x 128
-}}
-
-structure layout {{
-  from = stones
-  on = wall
-  scale = 0.6
-{structure_props}}}
-
+        r#"{head}
 map m {{
   from = regions(of = layout{args})
 {size}}}

@@ -8,12 +8,7 @@ mod common;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use common::{run_within, Project, Run};
-
-/// Stderr with miette's wrapping undone: one line, single spaces, no gutter bars.
-fn flat(run: &Run) -> String {
-    run.stderr().replace(['│', '\n'], " ").split_whitespace().collect::<Vec<_>>().join(" ")
-}
+use common::{flat, run_within, Project};
 
 fn wall_project(structure_props: &str) -> Project {
     let scene = format!(
@@ -53,7 +48,7 @@ fn refused_at(p: &Project, args: &[&str], text: &str, message: &str) -> String {
     all.extend_from_slice(args);
     let (run, took) = run_within(p.dir.path(), &all, Duration::from_secs(60));
     run.failed();
-    let err = flat(&run);
+    let err = flat(&run.stderr());
     assert!(err.contains(message), "expected `{message}` in:\n{err}");
     assert!(err.contains(text) && err.contains("this value"), "expected a label at `{text}`:\n{err}");
     assert!(took < Duration::from_secs(20), "took {took:?}");
@@ -105,7 +100,7 @@ fn a_huge_scene_size_is_refused_at_plan_time() {
     let (run, took) =
         run_within(p.dir.path(), &["build", "scene.tess", "--max-memory", "3GiB"], Duration::from_secs(30));
     run.failed();
-    let err = flat(&run);
+    let err = flat(&run.stderr());
     assert!(
         err.contains("map `n` at 16384 x 16384 pixels needs about 6.0 GiB but the memory budget is 3.0 GiB"),
         "{err}"
@@ -121,7 +116,7 @@ fn the_manifest_sets_the_budget_and_a_surface_plane_is_checked() {
     p.write("tessera.toml", "[paths]\nscenes = \".\"\n\n[limits]\nmax_memory = \"64 MiB\"\n");
     let run = p.tessera(&["build", "scene.tess"]);
     run.failed();
-    let err = flat(&run);
+    let err = flat(&run.stderr());
     assert!(err.contains("map `m` at 2048 x 2048 pixels") && err.contains("size = 2048 x 2048"), "{err}");
     assert!(err.contains("surface `s` at 4096 x 4096 pixels") && err.contains("plane = 4096 x 4096"), "{err}");
     // The flag overrides the manifest.
@@ -130,7 +125,7 @@ fn the_manifest_sets_the_budget_and_a_surface_plane_is_checked() {
     p.write("tessera.toml", "[limits]\nmax_memory = \"lots\"\n");
     let run = p.tessera(&["build", "scene.tess"]);
     run.failed();
-    assert!(flat(&run).contains("not a size"), "{}", run.stderr());
+    assert!(flat(&run.stderr()).contains("not a size"), "{}", run.stderr());
 }
 
 #[test]
@@ -139,7 +134,7 @@ fn importing_a_device_is_refused() {
     let p = Project::new(&[("scene.tess", "import \"/dev/zero\"\n")]);
     let (run, _) = run_within(p.dir.path(), &["build", "scene.tess"], Duration::from_secs(30));
     run.failed();
-    let err = flat(&run);
+    let err = flat(&run.stderr());
     assert!(err.contains("is not a regular file") && err.contains("imported here"), "{err}");
 }
 
@@ -153,7 +148,7 @@ fn a_fifo_as_an_image_is_refused_without_waiting() {
     assert!(status.success());
     let (run, _) = run_within(p.dir.path(), &["build", "scene.tess"], Duration::from_secs(30));
     run.failed();
-    let err = flat(&run);
+    let err = flat(&run.stderr());
     assert!(err.contains("is not a regular file") && err.contains("this file"), "{err}");
 }
 
@@ -164,7 +159,7 @@ fn files_over_a_quarter_of_the_budget_are_refused() {
     p.write_bytes("big.png", &vec![0u8; 200 * 1024]);
     let run = p.tessera(&["build", "scene.tess", "--max-memory", "400KiB"]);
     run.failed();
-    let err = flat(&run);
+    let err = flat(&run.stderr());
     assert!(err.contains("is too large (200.0 KiB): input files may hold at most 100.0 KiB"), "{err}");
     assert!(err.contains("big.png") && err.contains("this file"), "{err}");
 }
@@ -178,7 +173,7 @@ fn an_edit_outside_the_target_says_so_without_an_occupancy_map() {
     );
     let run = p.tessera(&["build", "scene.tess"]);
     run.failed();
-    let err = flat(&run);
+    let err = flat(&run.stderr());
     assert!(err.contains("position (900, 10) lies outside the 384 x 256 target"), "{err}");
     assert!(!err.contains("forbid") && !err.contains("occupancy"), "{err}");
 }
@@ -282,7 +277,7 @@ fn a_huge_sample_resize_is_refused_at_resize() {
     let (run, took) =
         run_within(p.dir.path(), &["build", "scene.tess", "--max-memory", "3GiB"], Duration::from_secs(30));
     run.failed();
-    let err = flat(&run);
+    let err = flat(&run.stderr());
     assert!(err.contains("sample `s` at 16384 x 16384 pixels needs about 12.0 GiB"), "{err}");
     assert!(err.contains("resize = 16384 x 16384") && err.contains("this size"), "{err}");
     assert!(took < Duration::from_secs(5), "took {took:?}");
@@ -309,7 +304,7 @@ fn decoding_an_image_is_held_to_the_budget_by_every_kind() {
         let (run, _) =
             run_within(p.dir.path(), &["build", "scene.tess", "--max-memory", "64MiB"], Duration::from_secs(30));
         run.failed();
-        let err = flat(&run);
+        let err = flat(&run.stderr());
         assert!(
             err.contains(
                 "the 4096 x 4096 image (4 channel(s)) needs about 640.0 MiB but the memory budget is 64.0 MiB"
@@ -332,15 +327,15 @@ fn the_manifest_and_fmt_read_only_regular_files_of_bounded_size() {
     p.write_bytes("tessera.toml", &[0xff, 0xfe, 0x00]);
     let run = p.tessera(&["build"]);
     run.failed();
-    assert!(flat(&run).contains("not UTF-8 text"), "{}", run.stderr());
+    assert!(flat(&run.stderr()).contains("not UTF-8 text"), "{}", run.stderr());
     p.write("tessera.toml", &format!("# {}\n", "x".repeat(2 << 20)));
     let run = p.tessera(&["build"]);
     run.failed();
-    assert!(flat(&run).contains("is too large"), "{}", run.stderr());
+    assert!(flat(&run.stderr()).contains("is too large"), "{}", run.stderr());
     std::fs::remove_file(p.path("tessera.toml")).unwrap();
     p.write("scenes/big.tess", &format!("# {}\n", "x".repeat(300 * 1024)));
     let run = p.tessera(&["fmt", "--max-memory", "400KiB"]);
     run.failed();
-    let err = flat(&run);
+    let err = flat(&run.stderr());
     assert!(err.contains("big.tess") && err.contains("is too large"), "{err}");
 }

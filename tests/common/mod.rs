@@ -169,6 +169,11 @@ pub fn run_within(dir: &Path, args: &[&str], limit: Duration) -> (Run, Duration)
     (Run { out }, start.elapsed())
 }
 
+/// Stderr with miette's wrapping undone: one line, single spaces, no gutter bars.
+pub fn flat(text: &str) -> String {
+    text.replace(['│', '\n'], " ").split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
 pub fn copy_dir(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).expect("mkdir");
     for e in std::fs::read_dir(from).expect("read_dir") {

@@ -307,11 +307,14 @@ pub fn associate_one(
             .into_iter()
             .map(|i| {
                 let o = orig[i].as_ref().expect("catalogued originals have a shape");
-                let lb = if hint == Some(i) { f64::NEG_INFINITY } else { distance_lower_bound_sq(&o.tf, &gen.tf) };
                 let x = extra(o);
-                (lb.max(0.0).sqrt() + x, lb, x, i)
+                if hint == Some(i) {
+                    (f64::NEG_INFINITY, f64::NEG_INFINITY, x, i)
+                } else {
+                    let lb = distance_lower_bound_sq(&o.tf, &gen.tf);
+                    (lb.max(0.0).sqrt() + x, lb, x, i)
+                }
             })
-            .map(|(key, lb, x, i)| (if hint == Some(i) { f64::NEG_INFINITY } else { key }, lb, x, i))
             .collect();
         cands.sort_unstable_by(|p, q| p.0.total_cmp(&q.0).then(p.3.cmp(&q.3)));
         // (original, cost, distance, shift, rotation)
