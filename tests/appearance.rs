@@ -87,6 +87,24 @@ fn appearance_outputs_do_not_depend_on_the_thread_count() {
     assert_eq!(a.read("out/scene/wall.png"), b.read("out/scene/wall.png"));
 }
 
+#[test]
+fn a_dressing_made_from_cached_analyses_equals_one_made_from_fresh_ones() {
+    // Cold: the analyses and the dressing run in one build. Warm: the analyses are cached by
+    // a build dressing the sample itself, then the structure is dressed from the cache. The
+    // contours' coordinates must come back from the cache bit for bit.
+    let cold = project(SCENE);
+    cold.tessera(&["build", "scene.tess"]).ok();
+    let warm = project(&SCENE.replace("  on = layout\n", "  on = stones\n"));
+    warm.tessera(&["build", "scene.tess"]).ok();
+    warm.write("scene.tess", SCENE);
+    let (run, stages) = warm.build_report(&["scene.tess"]);
+    run.ok();
+    let ran = ran(&stages);
+    assert!(ran.iter().any(|l| l == "appearance dressed (dress)"), "{ran:?}");
+    assert!(!ran.iter().any(|l| l == "appearance dressed (contours)"), "{ran:?}");
+    assert_eq!(cold.read("out/scene/wall.png"), warm.read("out/scene/wall.png"));
+}
+
 /// Builds `scene`, expecting a failure, and returns its diagnostics.
 fn fails(scene: &str) -> String {
     let p = project(scene);

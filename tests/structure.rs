@@ -171,6 +171,24 @@ fn view_needs_the_right_file_type() {
 }
 
 #[test]
+fn views_of_other_kinds_are_diagnosed_for_a_structure() {
+    // An appearance's views (and a layer's) were planned as mesh views and panicked.
+    for (view, file) in [("albedo", "a.png"), ("cluster_table", "a.json"), ("seams", "a.png")] {
+        let scene = USES_S_JSON.replace(
+            "output \"a.png\" { from = st }",
+            &format!("output \"{file}\" {{\n  from = st\n  view = {view}\n}}"),
+        );
+        let p = project(&scene);
+        p.write_bytes("s.json", &std::fs::read(common::repo().join("samples/standins/wall_random.json")).unwrap());
+        let run = p.tessera(&["build", "scene.tess"]);
+        run.failed();
+        let err = run.stderr();
+        assert!(err.contains(&format!("a structure has no `{view}` view")), "{view}: {err}");
+        assert!(!err.contains("panicked"), "{view}: {err}");
+    }
+}
+
+#[test]
 fn an_edit_change_reruns_the_edits_and_what_follows_only() {
     let scene = SCENE.replace("  lloyd { iterations = 10 }", "  lloyd { iterations = 10 }\n  edits = [delete(id = 3)]");
     let p = project(&scene);

@@ -112,4 +112,35 @@ mod tests {
             assert_eq!(a.to_bits(), b.to_bits(), "{a} came back as {b}");
         }
     }
+
+    /// A stage reading its input from the disk cache must see the value the producer made:
+    /// atlas positions and texture coordinates are computed `f64`s whose shortest decimal has
+    /// 17 digits, which JSON parsing without exact rounding reads back an ulp off (and
+    /// matching, downstream, then decided differently for dozens of junctions).
+    #[test]
+    fn contours_and_dressings_decode_to_the_values_encoded() {
+        use crate::synth::appearance::analysis::{contours, ContourParams};
+        use crate::synth::appearance::dress::{dress, testkit, DressHints, DressParams};
+        use crate::synth::appearance::AppearanceData;
+        use crate::synth::structure::analysis::sample::analyse_subdivision;
+        use crate::synth::structure::analysis::stats::StatsConfig;
+        use crate::synth::structure::fixtures::standins::{paint, wall_random, PaintParams, WallRandomParams};
+
+        let s = wall_random(&WallRandomParams::default(), 4);
+        let photo = paint(&s, &PaintParams::default(), 4);
+        let sample =
+            analyse_subdivision(&s.subdivision, Some([s.width as f64, s.height as f64]), &StatsConfig::default())
+                .expect("analyses");
+        let c = contours(&photo.image, &sample, &ContourParams::default(), None).expect("contours");
+        assert_eq!(Contours::decode(&c.encode()).expect("decodes"), c);
+        let data = AppearanceData {
+            unified: testkit::unified(2, 256, true),
+            originals: testkit::originals(2),
+            interstices: c.interstices.clone(),
+            junctions: c.junctions.clone(),
+        };
+        let d = dress(&s.mesh, &data, &DressParams::default(), 3, &DressHints::default());
+        assert!(d.pieces.len() > s.mesh.regions.len());
+        assert_eq!(Dressing::decode(&d.encode()).expect("decodes"), d);
+    }
 }

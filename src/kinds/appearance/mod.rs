@@ -10,9 +10,14 @@
 //! The structure stages never read the photo, and these never re-run a structure stage: a
 //! new appearance sample re-runs A2–R2 only; painting a unified texture re-runs the render
 //! only (the UVs do not change).
+//!
+//! With `cluster_choice = sticky` the dress stage reads the `keep_clusters` table as its
+//! file (`table`), so the graph stays a function of its inputs: the clusters to keep are an
+//! input like any other, exported by a `view = cluster_table` output.
 
 mod codecs;
 mod spec;
+mod table;
 
 use std::path::PathBuf;
 
@@ -215,7 +220,8 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
         files,
     );
 
-    // S5–S8: the dressing.
+    // S5–S8: the dressing; a sticky choice reads its table.
+    let keep = keep_clusters(d)?;
     let mut inputs = Inputs::new();
     let target = match target_handle {
         TargetHandle::Structure { mesh, associated } => Target::Structure { mesh: inputs.add(mesh), associated },
@@ -227,7 +233,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
         format!("appearance {} (dress)", d.name),
         FnStage::keyed("appearance.dress", 1, work, run_dress),
         inputs,
-        vec![],
+        keep.into_iter().collect(),
     );
 
     // R2: the render.
@@ -250,6 +256,27 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
     p.set_part(d, "contours", a3);
     p.set_part(d, "dressing", s5);
     Ok(r2)
+}
+
+/// The cluster table of a sticky choice, with the span that names it: `keep_clusters` is
+/// required with `cluster_choice = sticky` and means nothing without it.
+fn keep_clusters(d: &Decl) -> Result<Option<(PathBuf, Span)>, Diagnostic> {
+    let props = &d.props;
+    let sticky = spec::CLUSTER_CHOICES.get(props.enumeration("cluster_choice")) == spec::ClusterChoice::Sticky;
+    match (sticky, props.path("keep_clusters")) {
+        (true, Some(path)) => Ok(Some((path.clone(), props.span("keep_clusters").unwrap_or(d.name_span)))),
+        (false, None) => Ok(None),
+        (true, None) => Err(Diagnostic::error("`cluster_choice = sticky` needs the clusters to keep")
+            .with_code("tessera::appearance_sticky")
+            .with_label(props.span("cluster_choice").unwrap_or(d.name_span), "no `keep_clusters` to keep")
+            .with_help(
+                "write the current clusters with an output of this appearance with `view = cluster_table` (a `.json` file), then name it: `keep_clusters = \"clusters.json\"`",
+            )),
+        (false, Some(_)) => Err(Diagnostic::error("`keep_clusters` applies only with `cluster_choice = sticky`")
+            .with_code("tessera::appearance_sticky")
+            .with_label(props.span("keep_clusters").unwrap_or(d.name_span), "this table is not read")
+            .with_help("add `cluster_choice = sticky`, or remove `keep_clusters`")),
+    }
 }
 
 /// The interior analysis settings as the language gives them.
@@ -318,6 +345,7 @@ impl DressSettings {
             cluster_choice: match self.cluster_choice {
                 spec::ClusterChoice::ClosestShape => ClusterChoice::ClosestShape,
                 spec::ClusterChoice::Random => ClusterChoice::Random,
+                spec::ClusterChoice::Sticky => ClusterChoice::Sticky,
             },
             flip: match self.flip {
                 spec::Flip::Random => FlipMode::Random,
@@ -441,24 +469,50 @@ fn run_dress(cx: &RunCx, w: &DressWork) -> Result<Dressing, StageError> {
     let interiors = cx.get(w.interiors);
     let contours = cx.get(w.contours);
     let data = analysis::appearance_data(&interiors, &contours);
-    let dressing = match w.target {
+    let (shaped, sample);
+    let (mesh, known) = match w.target {
         Target::Structure { mesh, associated } => {
-            let shaped = cx.get(mesh);
+            shaped = cx.get(mesh);
             let known: Option<Vec<Option<usize>>> = associated.then(|| {
                 shaped.associated.iter().map(|a| a.and_then(|a| interiors.original_of_region(a.region))).collect()
             });
-            let hints = DressHints { associations: known.as_deref(), previous_clusters: None };
-            dress::dress(&shaped.mesh, &data, &w.params.params(), w.seed, &hints)
+            (&shaped.mesh, known)
         }
         Target::Sample(a) => {
-            let s = cx.get(a);
-            dress::dress(&s.mesh, &data, &w.params.params(), w.seed, &DressHints::default())
+            sample = cx.get(a);
+            (&sample.mesh, None)
         }
     };
+    let previous = match w.params.cluster_choice {
+        spec::ClusterChoice::Sticky => Some(kept_clusters(cx, mesh.regions.len(), data.unified.len())?),
+        _ => None,
+    };
+    let hints = DressHints { associations: known.as_deref(), previous_clusters: previous.as_deref() };
+    let dressing = dress::dress(mesh, &data, &w.params.params(), w.seed, &hints);
     for warning in &dressing.warnings {
         cx.warn(warning.clone());
     }
     Ok(dressing)
+}
+
+/// The clusters the `keep_clusters` table (the stage's file) keeps for `regions` regions of
+/// an appearance with `clusters` clusters.
+fn kept_clusters(cx: &RunCx, regions: usize, clusters: usize) -> Result<Vec<Option<usize>>, StageError> {
+    const HELP: &str = "a cluster table is `{ \"clusters\": <count>, \"regions\": { \"<region id>\": <cluster>, … } }`, as an output of the appearance with `view = cluster_table` writes it";
+    let bytes = cx.file(0)?;
+    let kept = table::parse(&bytes)
+        .map_err(|e| StageError::new(format!("not a cluster table: {e}")).in_file(0).with_help(HELP))?;
+    let (previous, beyond) = table::previous_clusters(&kept, regions, clusters).map_err(|e| {
+        StageError::new(e.to_string()).in_file(0).with_help(
+            "the table was written for another clustering of the appearance: build once with `cluster_choice = closest_shape` and write the table again (`view = cluster_table`), or set `clusters` to the table's count",
+        )
+    })?;
+    if beyond > 0 {
+        cx.warn(format!(
+            "the cluster table names {beyond} regions the dressed structure does not have (it has {regions}): ignored"
+        ));
+    }
+    Ok(previous)
 }
 
 fn run_render(cx: &RunCx, w: &RenderWork) -> Result<Image, StageError> {
@@ -498,11 +552,51 @@ struct ViewWork {
     render: In<Image>,
 }
 
+/// What the cluster table is written from: the dressing and, for the cluster count, the
+/// interiors.
+#[derive(serde::Serialize)]
+struct TableWork {
+    dressing: In<Dressing>,
+    interiors: In<Interiors>,
+}
+
 fn plan_view(p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
     let d = out.decl;
-    let view = out.view;
+    let json = out.format == super::OutputFormat::Json;
+    let view = match out.view {
+        View::Auto if json => View::ClusterTable,
+        v => v,
+    };
     if view == View::Auto {
         return Ok(None);
+    }
+    if view == View::ClusterTable || json {
+        if view != View::ClusterTable || !json {
+            return Err(Diagnostic::error(format!(
+                "an appearance's `{}` view is not written to `.{}`",
+                VIEWS.name(view),
+                out.ext
+            ))
+            .with_code("tessera::output_view")
+            .with_label(d.props.span("view").unwrap_or(d.name_span), "this view")
+            .with_label(d.name_span, "this file")
+            .with_help(
+                "`cluster_table` is written to a `.json` file, the other views of an appearance to `.png` or `.exr`",
+            ));
+        }
+        let mut inputs = Inputs::new();
+        let work = TableWork {
+            dressing: inputs.add(p.part(out.from, "dressing").expect("appearances plan a dressing")),
+            interiors: inputs.add(p.part(out.from, "interiors").expect("appearances plan interiors")),
+        };
+        let node = p.add(
+            format!("output {}", d.name),
+            FnStage::keyed("appearance.cluster_table", 1, work, run_table),
+            inputs,
+            vec![],
+        );
+        // Cluster ids are identities: a region in another cluster is another texture.
+        return Ok(Some(super::ViewNode { node, exact: true }));
     }
     if !matches!(
         view,
@@ -518,7 +612,7 @@ fn plan_view(p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super
         return Err(Diagnostic::error(format!("an appearance has no `{}` view in this format", VIEWS.name(view)))
             .with_code("tessera::output_view")
             .with_label(d.props.span("view").unwrap_or(d.name_span), "this view")
-            .with_help("its views are albedo, alpha, unified, interstices, junctions, guides and clusters, written to `.png` or `.exr`"));
+            .with_help("its views are albedo, alpha, unified, interstices, junctions, guides and clusters, written to `.png` or `.exr`, and cluster_table, written to `.json`"));
     }
     let mut inputs = Inputs::new();
     let work = ViewWork {
@@ -531,6 +625,11 @@ fn plan_view(p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super
     let node =
         p.add(format!("output {}", d.name), FnStage::keyed("appearance.view", 1, work, run_view), inputs, vec![]);
     Ok(Some(super::ViewNode { node, exact: false }))
+}
+
+fn run_table(cx: &RunCx, w: &TableWork) -> Result<Bytes, StageError> {
+    let dressing = cx.get(w.dressing);
+    Ok(Bytes(table::write(&dressing.clusters, cx.get(w.interiors).unified.len()).into_bytes()))
 }
 
 fn run_view(cx: &RunCx, w: &ViewWork) -> Result<Bytes, StageError> {

@@ -8,6 +8,7 @@ use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Range, Ty
 pub enum ClusterChoice {
     ClosestShape,
     Random,
+    Sticky,
 }
 
 /// `interstice.flip`: which end of a strip goes to which end of an edge.
@@ -20,7 +21,8 @@ pub enum Flip {
 }
 
 crate::choices!(pub CLUSTER_CHOICES: ClusterChoice {
-    "closest_shape" => ClusterChoice::ClosestShape, "random" => ClusterChoice::Random
+    "closest_shape" => ClusterChoice::ClosestShape, "random" => ClusterChoice::Random,
+    "sticky" => ClusterChoice::Sticky
 });
 crate::choices!(pub FLIPS: Flip { "random" => Flip::Random, "none" => Flip::None, "best_color" => Flip::BestColor });
 
@@ -103,7 +105,13 @@ pub static SPEC: KindSpec = KindSpec {
             "cluster_choice",
             Ty::Enum(CLUSTER_CHOICES.names),
             Default::Text("closest_shape"),
-            "A region's texture: its closest original's cluster (thesis), or a seeded random cluster.",
+            "A region's texture: its closest original's cluster (thesis), a seeded random cluster, or `sticky`: the cluster `keep_clusters` gives the region, so that editing the structure does not re-texture regions whose closest original changed (regions the table leaves out take their closest original's).",
+        ),
+        p(
+            "keep_clusters",
+            Ty::Path,
+            Default::Absent,
+            "With `cluster_choice = sticky`, required: a cluster table (JSON, region id → cluster) as an output of this appearance with `view = cluster_table` writes it. A table written for another number of clusters, or naming a cluster the appearance does not have, is an error.",
         ),
         p(
             "shrink",

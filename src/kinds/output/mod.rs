@@ -27,7 +27,7 @@ pub static SPEC: KindSpec = KindSpec {
             name: "view",
             ty: Ty::Enum(VIEWS.names),
             default: Default::Text("auto"),
-            doc: "For structures: `labels` (a colour per region), `labels16` (region ids in a 16-bit PNG), `edges`, `ellipses` (over the labels), `distance` (to each region's generator), `closest` (associated original shapes), `mesh` (JSON), `svg`, `stats` (JSON report against the sample). `auto`: `mesh` for .json, `svg` for .svg, `labels` for images. For quilted layers: `seams` (the block seams) and `index` (where each pixel came from: sample x → red, y → green).",
+            doc: "For structures: `labels` (a colour per region), `labels16` (region ids in a 16-bit PNG), `edges`, `ellipses` (over the labels), `distance` (to each region's generator), `closest` (associated original shapes), `mesh` (JSON), `svg`, `stats` (JSON report against the sample). `auto`: `mesh` for .json, `svg` for .svg, `labels` for images. For quilted layers: `seams` (the block seams) and `index` (where each pixel came from: sample x → red, y → green). For appearances: `albedo`, `alpha` (the render's coverage), `unified` (the unified textures), `interstices` and `junctions` (the atlases), `guides`, `clusters` (the sample's regions in their cluster's colour), and `cluster_table` (JSON: each region's cluster, as `keep_clusters` reads it; the `auto` view of a `.json` file).",
         },
         PropSpec {
             name: "edge_width",
@@ -45,7 +45,7 @@ pub static SPEC: KindSpec = KindSpec {
             name: "tolerance",
             ty: Ty::Number(Unit::Fraction, UNIT),
             default: Default::Absent,
-            doc: "Golden check: largest per-channel difference (in [0, 1] units) a pixel may have; default from tessera.toml. PNG outputs compare in whole code steps, this fraction rounded down (1/255 is one step of an 8-bit PNG, 257 of a 16-bit one). Identity views (`labels`, `labels16`, `index`) always compare exactly and refuse a tolerance.",
+            doc: "Golden check: largest per-channel difference (in [0, 1] units) a pixel may have; default from tessera.toml. PNG outputs compare in whole code steps, this fraction rounded down (1/255 is one step of an 8-bit PNG, 257 of a 16-bit one). Identity views (`labels`, `labels16`, `index`, `cluster_table`) always compare exactly and refuse a tolerance.",
         },
         PropSpec {
             name: "outliers",
@@ -80,6 +80,7 @@ pub enum View {
     Junctions,
     Guides,
     Clusters,
+    ClusterTable,
 }
 
 crate::choices!(
@@ -90,7 +91,7 @@ crate::choices!(
         "mesh" => View::Mesh, "svg" => View::Svg, "stats" => View::Stats, "seams" => View::Seams,
         "index" => View::Index, "albedo" => View::Albedo, "alpha" => View::Alpha, "unified" => View::Unified,
         "interstices" => View::Interstices, "junctions" => View::Junctions, "guides" => View::Guides,
-        "clusters" => View::Clusters,
+        "clusters" => View::Clusters, "cluster_table" => View::ClusterTable,
     }
 );
 

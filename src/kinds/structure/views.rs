@@ -52,7 +52,18 @@ pub fn plan_output(
         (View::Auto, _) => View::Labels,
         (v, _) => v,
     };
-    if matches!(view, View::Seams | View::Index) {
+    let ours = [
+        View::Labels,
+        View::Labels16,
+        View::Edges,
+        View::Ellipses,
+        View::Distance,
+        View::Closest,
+        View::Mesh,
+        View::Svg,
+        View::Stats,
+    ];
+    if !ours.contains(&view) {
         return Err(Diagnostic::error(format!("a structure has no `{}` view", VIEWS.name(view)))
             .with_code("tessera::output_view")
             .with_label(d.props.span("view").unwrap_or(d.name_span), "this view")

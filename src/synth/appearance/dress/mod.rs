@@ -5,7 +5,8 @@
 //! S8 matching (`matching`). The result holds polygons and texture coordinates only: no texel
 //! is produced, so texture memory stays that of the appearance data whatever the target size.
 //! `params` holds the options, `geom` the plane geometry, `testkit` hand-made appearance
-//! data for tests and benches.
+//! data for tests and benches; `tests` checks F23–F27, `tests_edits` F28 (mixed sources,
+//! painted textures, local edits and sticky clusters).
 
 pub mod geom;
 pub mod interiors;
@@ -17,6 +18,8 @@ pub mod params;
 pub mod testkit;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_edits;
 
 use crate::synth::appearance::types::{AppearanceData, Dressing, Mesh};
 use crate::synth::structure::render::mesh_edges;
