@@ -1,5 +1,5 @@
 //! Synthetic photometric stand-ins with exact ground truth: a periodic height field and albedo
-//! rendered under 36 lights by Lambert + Blinn [references: dong §4.2]
+//! rendered under 36 lights by Lambert + Blinn: tessera's stand-in for the PhoTex captures.
 //!
 //! Test code only (compiled for tests or with the `fixtures` feature). Scenario A is an
 //! unshadowed Lambertian surface (every linear method is exact), B and C add a specular lobe,

@@ -146,23 +146,25 @@ fn quantiser(coef: &[f64]) -> ([f32; 6], [i32; 6]) {
     (scale, bias)
 }
 
+/// The next header line (at most 256 bytes), advancing `pos` past its newline.
+fn next_line<'a>(bytes: &'a [u8], pos: &mut usize) -> Option<&'a [u8]> {
+    let start = *pos;
+    let end = start + bytes.get(start..)?.iter().take(256).position(|&b| b == b'\n')?;
+    *pos = end + 1;
+    Some(&bytes[start..end])
+}
+
 /// Reads an uncompressed PTM 1.2 (RGB or LRGB). Malformed input is an error, never a panic;
 /// the payload size is checked against the bytes present before anything is allocated.
 pub fn read_ptm(bytes: &[u8]) -> Result<PtmImage, RelightError> {
     let bad = |s: &str| RelightError::PtmFile(s.to_string());
     // The header is ASCII lines; its numbers may be split over lines, so it is read as tokens.
     let mut pos = 0;
-    let mut line = || -> Option<&[u8]> {
-        let start = pos;
-        let end = start + bytes.get(start..)?.iter().take(256).position(|&b| b == b'\n')?;
-        pos = end + 1;
-        Some(&bytes[start..end])
-    };
-    let version = line().ok_or_else(|| bad("no version line"))?;
+    let version = next_line(bytes, &mut pos).ok_or_else(|| bad("no version line"))?;
     if version.trim_ascii() != b"PTM_1.2" {
         return Err(bad("the first line is not PTM_1.2"));
     }
-    let format = match line().ok_or_else(|| bad("no format line"))?.trim_ascii() {
+    let format = match next_line(bytes, &mut pos).ok_or_else(|| bad("no format line"))?.trim_ascii() {
         b"PTM_FORMAT_RGB" => PtmFormat::Rgb,
         b"PTM_FORMAT_LRGB" => PtmFormat::Lrgb,
         other => {
