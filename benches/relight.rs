@@ -36,7 +36,7 @@ fn bench(c: &mut Criterion) {
         });
         // The floor: read the same bytes and write them once (2 threads, like relighting).
         let mut dst = vec![0.0f32; maps.data.len()];
-        group.bench_function(format!("copy_{}_maps_{}MB", rep.channels(), bytes >> 20), |b| {
+        group.bench_function(format!("copy_{}_maps_{}MB", method.name(), bytes >> 20), |b| {
             b.iter(|| {
                 dst.par_chunks_mut(1 << 16).zip(maps.data.par_chunks(1 << 16)).for_each(|(d, s)| d.copy_from_slice(s));
                 black_box(&dst);
