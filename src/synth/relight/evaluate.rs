@@ -146,7 +146,7 @@ mod tests {
         let mean = img.iter().sum::<f64>() / 64.0;
         let sd = (img.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / 64.0).sqrt();
         let shifted: Vec<f64> = img.iter().map(|v| v - 0.3).collect();
-        let r = eta(&[shifted.clone()], &[&img]);
+        let r = eta(std::slice::from_ref(&shifted), &[&img]);
         assert!((r.eta - 0.3 / sd).abs() < 1e-12);
         assert!((r.eta_literal - r.eta / 8.0).abs() < 1e-12);
         // Tiled 2 × 2 (as a 16 × 16 image of an 8 × 8 one): same η.

@@ -72,6 +72,9 @@ pub fn write_ptm(
     if m == 0 || maps.len() != 6 * m || chroma.is_some_and(|c| c.len() != 3 * m) {
         return Err(RelightError::Size { what: "PTM maps", got: [maps.len(), m], expected: [6 * m, m] });
     }
+    if let Some(j) = maps.iter().chain(chroma.unwrap_or(&[])).position(|v| !v.is_finite()) {
+        return Err(RelightError::PtmFile(format!("value {j} of the maps or chromaticity is not finite")));
+    }
     let chroma_at = |c: usize, j: usize| chroma.map_or(1.0, |ch| ch[c * m + j]);
     // Coefficient blocks in file units (0..255 intensity, y-up frame), pixel-interleaved.
     let blocks = if format == PtmFormat::Lrgb { 1 } else { 3 };
@@ -134,7 +137,7 @@ fn quantiser(coef: &[f64]) -> ([f32; 6], [i32; 6]) {
     let mut bias = [0i32; 6];
     for n in 0..6 {
         let (mut a, mut b) = (lo[n], hi[n]);
-        if !(b - a > 1e-12 * a.abs().max(b.abs())) {
+        if b - a <= 1e-12 * a.abs().max(b.abs()) {
             a = a.min(0.0);
             b = b.max(0.0);
         }
