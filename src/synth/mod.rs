@@ -7,6 +7,7 @@ pub mod map;
 pub mod metrics;
 pub mod progress;
 pub mod quilt;
+pub mod relight;
 pub mod rng;
 pub mod structure;
 pub mod surface;

@@ -59,6 +59,8 @@ use crate::raster::Image;
 pub use multigrid::Coarsening;
 pub use params::*;
 pub use periodic::{make_periodic, wrap_seam_ratio};
+// Relighting integrates gradient fields with the same exact Neumann solve.
+pub(crate) use spectral::solve_neumann;
 
 /// Two-source blend under a binary mask (the thesis's operation with the given parameters).
 pub fn blend_two(a: &Image, b: &Image, mask: &Image, params: &BlendParams) -> Result<Blended, BlendError> {

@@ -1,0 +1,120 @@
+//! Synthetic photometric stand-ins with exact ground truth: a periodic height field and albedo
+//! rendered under 36 lights by Lambert + Blinn: tessera's stand-in for the PhoTex captures.
+//!
+//! Test code only (compiled for tests or with the `fixtures` feature). Scenario A is an
+//! unshadowed Lambertian surface (every linear method is exact), B and C add a specular lobe,
+//! D a steep surface with attached shadows.
+
+use glam::DVec3;
+
+use super::{grid, Light, PhotoStack};
+
+/// The four scenarios: amplitude `a`, specular weight `k_s`, exponent `e`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scenario {
+    A,
+    B,
+    C,
+    D,
+}
+
+impl Scenario {
+    pub const ALL: [Scenario; 4] = [Scenario::A, Scenario::B, Scenario::C, Scenario::D];
+
+    /// `(a, k_s, e)`.
+    pub fn params(self) -> (f64, f64, f64) {
+        match self {
+            Scenario::A => (0.8, 0.0, 20.0),
+            Scenario::B => (0.8, 0.5, 20.0),
+            Scenario::C => (0.8, 0.3, 20.0),
+            Scenario::D => (3.0, 0.0, 20.0),
+        }
+    }
+}
+
+/// A rendered capture and its truth (row-major `n × n` planes).
+#[derive(Clone, Debug)]
+pub struct Capture {
+    pub n: usize,
+    pub stack: PhotoStack,
+    pub height: Vec<f64>,
+    pub p: Vec<f64>,
+    pub q: Vec<f64>,
+    pub albedo: Vec<f64>,
+    pub amplitude: f64,
+    pub specular: f64,
+    pub exponent: f64,
+}
+
+/// The 36 lights: slants 30°, 45°, 60° × tilts 0°, 30°, …, 330°.
+pub fn lights36() -> Vec<Light> {
+    grid(&[30.0, 45.0, 60.0], &(0..12).map(|k| k as f64 * 30.0).collect::<Vec<_>>())
+}
+
+/// `s = a·[sin 2wx + ½ cos 3wy + 0.3 sin w(x+2y)]`, `w = 2π/n`, with its analytic gradient.
+pub fn surface(n: usize, a: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let w = 2.0 * std::f64::consts::PI / n as f64;
+    let mut s = Vec::with_capacity(n * n);
+    let mut p = Vec::with_capacity(n * n);
+    let mut q = Vec::with_capacity(n * n);
+    for y in 0..n {
+        for x in 0..n {
+            let (x, y) = (x as f64, y as f64);
+            s.push(a * ((2.0 * w * x).sin() + 0.5 * (3.0 * w * y).cos() + 0.3 * (w * (x + 2.0 * y)).sin()));
+            p.push(a * (2.0 * w * (2.0 * w * x).cos() + 0.3 * w * (w * (x + 2.0 * y)).cos()));
+            q.push(a * (-1.5 * w * (3.0 * w * y).sin() + 0.6 * w * (w * (x + 2.0 * y)).cos()));
+        }
+    }
+    (s, p, q)
+}
+
+/// `ρ = 0.6 + 0.2 sin(wx) cos(2wy)`.
+pub fn albedo(n: usize) -> Vec<f64> {
+    let w = 2.0 * std::f64::consts::PI / n as f64;
+    (0..n * n).map(|j| 0.6 + 0.2 * (w * (j % n) as f64).sin() * (2.0 * w * (j / n) as f64).cos()).collect()
+}
+
+/// `ρ·max(0, n·l) + k_s·max(0, n·h)^e` (specular only where `n·l > 0`), `h = normalise(l + z)`.
+pub fn shade(p: f64, q: f64, rho: f64, l: DVec3, ks: f64, e: f64) -> f64 {
+    let nrm = DVec3::new(-p, -q, 1.0).normalize();
+    let nl = nrm.dot(l);
+    if nl <= 0.0 {
+        return 0.0;
+    }
+    let h = (l + DVec3::Z).normalize();
+    rho * nl + ks * nrm.dot(h).max(0.0).powf(e)
+}
+
+/// The scenario rendered on an `n × n` grid under `lights`.
+pub fn render(scenario: Scenario, n: usize, lights: &[Light]) -> Capture {
+    let (a, ks, e) = scenario.params();
+    let (height, p, q) = surface(n, a);
+    let albedo = albedo(n);
+    let images = lights
+        .iter()
+        .map(|l| {
+            let v = l.vector();
+            (0..n * n).map(|j| shade(p[j], q[j], albedo[j], v, ks, e)).collect()
+        })
+        .collect();
+    let stack = PhotoStack::new(n, n, images, lights.to_vec()).expect("valid synthetic stack");
+    Capture { n, stack, height, p, q, albedo, amplitude: a, specular: ks, exponent: e }
+}
+
+/// The scenario at `n = 32` under the 36 lights, as the reference prototype ran it.
+pub fn scenario(s: Scenario) -> Capture {
+    render(s, 32, &lights36())
+}
+
+/// The stack quantised to `bits`, full scale = its largest value (PhoTex's 12-bit capture).
+pub fn quantise(stack: &PhotoStack, bits: u32) -> PhotoStack {
+    let top = stack.images.iter().flatten().cloned().fold(0.0, f64::max);
+    let levels = ((1u64 << bits) - 1) as f64;
+    let mut out = stack.clone();
+    for img in &mut out.images {
+        for v in img.iter_mut() {
+            *v = (*v / top * levels).round() * top / levels;
+        }
+    }
+    out
+}
