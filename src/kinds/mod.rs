@@ -9,6 +9,7 @@ mod layer;
 mod library;
 mod map;
 mod output;
+mod representation;
 mod sample;
 mod scene;
 mod structure;
@@ -55,6 +56,7 @@ pub trait Kind: Sync {
 pub static KINDS: &[&dyn Kind] = &[
     &scene::Scene,
     &sample::Sample,
+    &representation::Representation,
     &map::Map,
     &surface::Surface,
     &structure::Structure,
@@ -157,17 +159,22 @@ impl Plan {
 }
 
 /// What planning needs besides the scene.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PlanOptions {
+#[derive(Clone, Copy, Default)]
+pub struct PlanOptions<'a> {
     /// Declarations whose sizes imply more memory are refused at plan time; stages refuse
     /// what their inputs imply beyond it at run time. Not part of any key: it decides
     /// whether a result is computed, never what it is.
     pub budget: Budget,
+    /// The door through which planning reads the few files that decide the graph's shape
+    /// (a light-position file naming a capture's images), so that they are hashed and
+    /// watched like the scene; without one, such files are read directly.
+    pub loader: Option<&'a dyn crate::lang::Loader>,
 }
 
 pub struct Planner<'a> {
     pub scene: &'a Scene,
     pub budget: Budget,
+    loader: Option<&'a dyn crate::lang::Loader>,
     graph: Graph,
     blame: Vec<Blame>,
     /// The node holding each declaration's result.
@@ -180,6 +187,14 @@ pub struct Planner<'a> {
 }
 
 impl Planner<'_> {
+    /// A text file that decides what the plan reads (see [`PlanOptions::loader`]).
+    pub fn read_text(&self, path: &std::path::Path) -> std::io::Result<std::sync::Arc<str>> {
+        match self.loader {
+            Some(l) => l.load(path),
+            None => crate::graph::world::read_regular_text(path, self.budget.max_file()).map(Into::into),
+        }
+    }
+
     /// Adds a stage of the declaration being planned, reading `inputs` and `files` (each
     /// with the span of the string that named it); the handle of its artifact.
     pub fn add<T: Encoded>(
@@ -306,10 +321,11 @@ pub fn plan(scene: &Scene) -> Result<Plan, Vec<Diagnostic>> {
 /// Plans a resolved scene. Errors are problems only visible with the whole declaration in
 /// view (a crop outside the image's declared size, an output extension tessera cannot write,
 /// a size that cannot fit the memory budget).
-pub fn plan_with(scene: &Scene, options: &PlanOptions) -> Result<Plan, Vec<Diagnostic>> {
+pub fn plan_with(scene: &Scene, options: &PlanOptions<'_>) -> Result<Plan, Vec<Diagnostic>> {
     let mut p = Planner {
         scene,
         budget: options.budget,
+        loader: options.loader,
         graph: Graph::default(),
         blame: Vec::new(),
         results: HashMap::new(),

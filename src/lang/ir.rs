@@ -23,6 +23,9 @@ pub enum Val {
     Path(#[serde(serialize_with = "file_name_only")] PathBuf),
     /// A directory and the files it holds (sorted). Serialised by file names only.
     Dir(#[serde(skip)] PathBuf, #[serde(serialize_with = "file_names_only")] Vec<PathBuf>),
+    /// Files named one by one or by a pattern, in order (a pattern's matches sorted by name),
+    /// each with the span of the string that named it. Serialised by file names only.
+    Files(#[serde(serialize_with = "file_names_only")] Vec<PathBuf>, #[serde(skip)] Vec<Span>),
     Enum(String),
     Ref(String),
     Refs(Vec<String>),
@@ -188,6 +191,14 @@ impl Props {
         match self.get(name)? {
             Val::Dir(d, files) => Some((d, files)),
             v => panic!("property `{name}` is not a directory: {v:?}"),
+        }
+    }
+
+    /// A files property: the files, each with the span of the string that named it.
+    pub fn files(&self, name: &str) -> Option<(&[PathBuf], &[Span])> {
+        match self.get(name)? {
+            Val::Files(files, spans) => Some((files, spans)),
+            v => panic!("property `{name}` is not a list of files: {v:?}"),
         }
     }
 

@@ -10,5 +10,5 @@ pub mod source;
 
 pub use diag::{Diagnostic, Diagnostics};
 pub use ir::{Decl, Props, Scene, Val};
-pub use resolve::{compile, Loader, Options};
+pub use resolve::{compile, normalize, Loader, Options};
 pub use schema::KindSpec;

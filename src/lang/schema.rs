@@ -68,6 +68,8 @@ pub enum Value {
     Example,
     /// An indexed texture library.
     Library,
+    /// A photometric capture: images of one surface under known lights.
+    Capture,
 }
 
 impl Value {
@@ -79,6 +81,7 @@ impl Value {
             Value::Structure => "a structure",
             Value::Example => "a structure example",
             Value::Library => "a library",
+            Value::Capture => "a photometric capture",
         }
     }
 }
@@ -214,6 +217,9 @@ pub enum Ty {
     Path,
     /// A string naming a directory; resolved to its files with these extensions.
     Dir(&'static [&'static str]),
+    /// Files with these extensions: a vector of path strings, or one string that is a path
+    /// or a pattern whose file name holds `*` (any run of characters) or `?` (one character).
+    Files(&'static [&'static str]),
     Enum(&'static [&'static str]),
     /// A reference to a declaration producing one of these values.
     Ref(&'static [Value]),
@@ -247,6 +253,10 @@ impl Ty {
                 "a directory path string (its {} files)",
                 exts.iter().map(|e| format!("`.{e}`")).collect::<Vec<_>>().join(", ")
             ),
+            Ty::Files(exts) => format!(
+                "file paths: a vector of strings, or a pattern string such as `\"dir/*.png\"` ({})",
+                exts.iter().map(|e| format!("`.{e}`")).collect::<Vec<_>>().join(", ")
+            ),
             Ty::Enum(vs) => format!("one of {}", list(vs)),
             Ty::Ref(vs) => format!("a reference to {}", values(vs)),
             Ty::Refs(vs) => format!("a vector of references to {}", values(vs)),
@@ -259,7 +269,7 @@ impl Ty {
             }
             Ty::Block(_) => "a block `{ ... }`".into(),
             Ty::Calls(calls) => format!(
-                "a vector of {}",
+                "one or a vector of {}",
                 calls.iter().map(|c| format!("`{}(...)`", c.name)).collect::<Vec<_>>().join(", ")
             ),
         }

@@ -169,8 +169,9 @@ impl Project {
         let registry = kinds::registry();
         let opts =
             lang::Options { sets: &self.sets, sets_may_miss: self.sets_may_miss, seed: self.seed, registry: &registry };
-        let scene = lang::compile(path, &WorldLoader(&self.world), &opts)?;
-        match kinds::plan_with(&scene, &kinds::PlanOptions { budget: self.budget }) {
+        let loader = WorldLoader(&self.world);
+        let scene = lang::compile(path, &loader, &opts)?;
+        match kinds::plan_with(&scene, &kinds::PlanOptions { budget: self.budget, loader: Some(&loader) }) {
             Ok(plan) => Ok((scene, plan)),
             Err(errors) => Err(Diagnostics::new(errors, scene.sources).into()),
         }

@@ -121,6 +121,16 @@ fn png_dimensions(bytes: &[u8]) -> Option<(usize, usize, usize)> {
     Some((width, height, channels))
 }
 
+/// The bits per sample a PNG stores (1, 2, 4, 8 or 16), from its header; `None` for other
+/// formats or an unreadable header.
+pub fn png_bit_depth(bytes: &[u8]) -> Option<u8> {
+    if sniff(bytes)? != Format::Png {
+        return None;
+    }
+    let ihdr = bytes.get(8..26)?;
+    (&ihdr[4..8] == b"IHDR").then_some(ihdr[16])
+}
+
 /// Width, height and channel count as the file's header states them, read without decoding
 /// any pixels, so a caller can hold the decode to a memory budget. `None` when the header
 /// cannot be read (the decoder then reports why).

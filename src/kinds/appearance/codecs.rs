@@ -1,50 +1,10 @@
 //! The artifacts of the appearance stages and their cache encodings: a JSON header and the
 //! images behind it, each in the raster codec, so textures stay binary.
 
-use serde::de::DeserializeOwned;
-use serde::Serialize;
-
+use super::super::artifact::{pack, unpack};
 use super::super::Encoded;
-use crate::raster::{self, Image};
 use crate::synth::appearance::analysis::{Contours, Interiors};
 use crate::synth::appearance::Dressing;
-
-/// `meta` as JSON, then the images, each length-prefixed (u64 little-endian).
-fn pack(meta: &impl Serialize, images: &[&Image]) -> Vec<u8> {
-    let head = serde_json::to_vec(meta).expect("appearance metadata serialises");
-    let mut out = Vec::new();
-    out.extend_from_slice(&(head.len() as u64).to_le_bytes());
-    out.extend_from_slice(&head);
-    out.extend_from_slice(&(images.len() as u64).to_le_bytes());
-    for img in images {
-        let b = raster::codec::to_bytes(img);
-        out.extend_from_slice(&(b.len() as u64).to_le_bytes());
-        out.extend_from_slice(&b);
-    }
-    out
-}
-
-fn unpack<M: DeserializeOwned>(bytes: &[u8]) -> Result<(M, Vec<Image>), String> {
-    let mut at = 0usize;
-    let mut take = |n: usize| -> Result<&[u8], String> {
-        let end = at.checked_add(n).filter(|&e| e <= bytes.len()).ok_or("truncated appearance artifact")?;
-        let s = &bytes[at..end];
-        at = end;
-        Ok(s)
-    };
-    let len = |b: &[u8]| -> Result<usize, String> {
-        usize::try_from(u64::from_le_bytes(b.try_into().expect("8 bytes"))).map_err(|e| e.to_string())
-    };
-    let n = len(take(8)?)?;
-    let meta: M = serde_json::from_slice(take(n)?).map_err(|e| e.to_string())?;
-    let count = len(take(8)?)?;
-    let mut images = Vec::with_capacity(count.min(64));
-    for _ in 0..count {
-        let n = len(take(8)?)?;
-        images.push(raster::codec::from_bytes(take(n)?).map_err(|e| e.to_string())?);
-    }
-    Ok((meta, images))
-}
 
 impl Encoded for Interiors {
     fn encode(&self) -> Vec<u8> {

@@ -92,7 +92,20 @@ impl super::Kind for Layer {
 
     fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
         let view = out.view;
+        if let Some(surface) = p.part::<super::representation::Relightable>(out.from, "relightable") {
+            let own = matches!(view, View::Albedo | View::Normal | View::Height | View::Maps);
+            if own || (view == View::Auto && out.decl.props.span("light").is_some()) {
+                return super::representation::plan_view(p, out, surface).map(Some);
+            }
+        }
         if view == View::Auto {
+            if let Some(span) = out.decl.props.span("light") {
+                return Err(Diagnostic::error(
+                    "`light` relights a layer quilted from a representation; this one is not",
+                )
+                .with_code("tessera::output_view")
+                .with_label(span, "remove this"));
+            }
             return Ok(None);
         }
         let d = out.decl;
@@ -169,10 +182,33 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<Handle<Image>, 
         }
         let removal = SeamRemoval { quilted, samples, radius: props.pixels("seam_band"), solver: solver_of(d) };
         let stage = FnStage::keyed("layer.seams", 3, removal, remove_seams);
-        return Ok(p.add(format!("layer {} (seams)", d.name), stage, inputs, vec![]));
+        let image = p.add(format!("layer {} (seams)", d.name), stage, inputs, vec![]);
+        return relit(p, d, sample, quilt_node, image);
     }
     let stage = FnStage::keyed("layer.image", 2, quilted, |cx, &quilted| Ok(cx.get(quilted).image.clone()));
-    Ok(p.add(format!("layer {}", d.name), stage, inputs, vec![]))
+    let image = p.add(format!("layer {}", d.name), stage, inputs, vec![]);
+    relit(p, d, sample, quilt_node, image)
+}
+
+/// A layer grown from a representation is its quilted maps relit (and a relightable surface
+/// for outputs); any other layer is the quilted image.
+fn relit(
+    p: &mut Planner,
+    d: &Decl,
+    sample: &str,
+    quilt: Handle<QuiltResult>,
+    image: Handle<Image>,
+) -> Result<Handle<Image>, Diagnostic> {
+    if super::representation::is_representation(p, sample) {
+        return super::representation::plan_relit_layer(p, d, sample, quilt, image);
+    }
+    if let Some(span) = d.props.span("light") {
+        return Err(Diagnostic::error(format!("layer `{}` does not grow a representation: it has no light", d.name))
+            .with_code("tessera::layer")
+            .with_label(span, "remove this")
+            .with_help("`light` relights a layer quilted from a `representation`"));
+    }
+    Ok(image)
 }
 
 /// The value of the reference property `name` of `d`, if it has one, as an input.

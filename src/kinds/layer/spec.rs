@@ -66,7 +66,7 @@ pub static SPEC: KindSpec = KindSpec {
     extent: Extent::Ref("on"),
     props: &[
         // Quilting (Efros–Freeman, with Dong's and Frasson's extensions).
-        prop("quilt", Ty::Ref(&[Value::Image]), Default::Absent, "Grow this image (a sample, or another layer) by image quilting."),
+        prop("quilt", Ty::Ref(&[Value::Image]), Default::Absent, "Grow this image (a sample, another layer, or a `representation`, whose maps are cut and pasted together and relit) by image quilting."),
         prop(
             "on",
             Ty::Ref(&[Value::Plane]),
@@ -128,6 +128,12 @@ pub static SPEC: KindSpec = KindSpec {
             "Candidate block positions are multiples of this (1 = every position).",
         ),
         prop("tileable", Ty::Bool, Default::Text("false"), "The output wraps around (torus): it tiles seamlessly."),
+        prop(
+            "light",
+            Ty::Source { calls: crate::kinds::sample::capture::LIGHT, refs: &[] },
+            Default::Absent,
+            "For a layer quilted from a `representation`: the light its image is relit at (default `light(tilt = 0 deg, slant = 45 deg)`); outputs may relight it at others.",
+        ),
         prop(
             "orientation",
             Ty::Ref(&[Value::Map]),

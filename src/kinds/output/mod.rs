@@ -27,7 +27,19 @@ pub static SPEC: KindSpec = KindSpec {
             name: "view",
             ty: Ty::Enum(VIEWS.names),
             default: Default::Text("auto"),
-            doc: "For structures: `labels` (a colour per region), `labels16` (region ids in a 16-bit PNG), `edges`, `ellipses` (over the labels), `distance` (to each region's generator), `closest` (associated original shapes), `mesh` (JSON), `svg`, `stats` (JSON report against the sample). `auto`: `mesh` for .json, `svg` for .svg, `labels` for images. For quilted layers: `seams` (the block seams) and `index` (where each pixel came from: sample x → red, y → green). For appearances: `albedo`, `alpha` (the render's coverage), `unified` (the unified textures), `interstices` and `junctions` (the atlases), `guides`, `clusters` (the sample's regions in their cluster's colour), and `cluster_table` (JSON: each region's cluster, as `keep_clusters` reads it; the `auto` view of a `.json` file).",
+            doc: "For structures: `labels` (a colour per region), `labels16` (region ids in a 16-bit PNG), `edges`, `ellipses` (over the labels), `distance` (to each region's generator), `closest` (associated original shapes), `mesh` (JSON), `svg`, `stats` (JSON report against the sample). `auto`: `mesh` for .json, `svg` for .svg, `labels` for images. For quilted layers: `seams` (the block seams) and `index` (where each pixel came from: sample x → red, y → green). For appearances: `albedo`, `alpha` (the render's coverage), `unified` (the unified textures), `interstices` and `junctions` (the atlases), `guides`, `clusters` (the sample's regions in their cluster's colour), and `cluster_table` (JSON: each region's cluster, as `keep_clusters` reads it; the `auto` view of a `.json` file). For representations and layers quilted from them: `auto` (relit at `light`), `albedo`, `normal` (tangent-space normal map), `height` (integrated from the gradients: Frankot–Chellappa on tileable layers, least squares otherwise; EXR keeps pixel units, PNG stretches to the full range), `maps` (the representation's channels, EXR only) and, for representations, `report` (JSON: the η relighting error).",
+        },
+        PropSpec {
+            name: "light",
+            ty: Ty::Source { calls: crate::kinds::sample::capture::LIGHT, refs: &[] },
+            default: Default::Absent,
+            doc: "For relightable sources: the light of the relit image. Default `light(tilt = 0 deg, slant = 45 deg)`.",
+        },
+        PropSpec {
+            name: "normals",
+            ty: Ty::Enum(GREENS.names),
+            default: Default::Text("opengl"),
+            doc: "Green channel of `normal` views: `opengl` (+Y up: Blender, glTF) or `directx` (+Y down: Unreal).",
         },
         PropSpec {
             name: "edge_width",
@@ -81,6 +93,10 @@ pub enum View {
     Guides,
     Clusters,
     ClusterTable,
+    Normal,
+    Height,
+    Maps,
+    Report,
 }
 
 crate::choices!(
@@ -91,7 +107,16 @@ crate::choices!(
         "mesh" => View::Mesh, "svg" => View::Svg, "stats" => View::Stats, "seams" => View::Seams,
         "index" => View::Index, "albedo" => View::Albedo, "alpha" => View::Alpha, "unified" => View::Unified,
         "interstices" => View::Interstices, "junctions" => View::Junctions, "guides" => View::Guides,
-        "clusters" => View::Clusters, "cluster_table" => View::ClusterTable,
+        "clusters" => View::Clusters, "cluster_table" => View::ClusterTable, "normal" => View::Normal,
+        "height" => View::Height, "maps" => View::Maps, "report" => View::Report,
+    }
+);
+
+crate::choices!(
+    /// `normals`: the green channel's convention of normal maps.
+    pub GREENS: crate::synth::relight::export::GreenAxis {
+        "opengl" => crate::synth::relight::export::GreenAxis::OpenGl,
+        "directx" => crate::synth::relight::export::GreenAxis::DirectX
     }
 );
 
@@ -270,7 +295,7 @@ pub(crate) fn encode_image(img: &Image, format: OutputFormat) -> Result<Bytes, S
 }
 
 /// Images are stored in their declared colour space; PNGs hold sRGB and EXRs linear.
-fn to_file_space(img: &Image, space: ColorSpace, format: OutputFormat) -> Image {
+pub(crate) fn to_file_space(img: &Image, space: ColorSpace, format: OutputFormat) -> Image {
     let linear = match space {
         ColorSpace::Linear => img.clone(),
         ColorSpace::Srgb => raster::color::image_srgb_to_linear(img),

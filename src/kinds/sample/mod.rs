@@ -1,6 +1,9 @@
-//! `sample`: example material. An image (cropped, resized, in a chosen colour space) and
-//! other files (structures today; photometric sets and patches later) passed through to
-//! the stages that read them.
+//! `sample`: example material. An image (cropped, resized, in a chosen colour space), a
+//! photometric capture (`capture`), and other files (structures) passed through to the
+//! stages that read them.
+
+pub(super) mod capture;
+mod lp;
 
 use super::{Bytes, FnStage, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
@@ -17,7 +20,7 @@ pub static SPEC: KindSpec = KindSpec {
     name: "sample",
     doc: "Example material: a photo or painted image, and files that later stages read (a structure drawing).",
     naming: Naming::Ident,
-    produces: &[Value::Image, Value::Example],
+    produces: &[Value::Image, Value::Example, Value::Capture],
     settings: &[],
     extent: Extent::None,
     props: &[
@@ -58,6 +61,36 @@ pub static SPEC: KindSpec = KindSpec {
             doc: "Colour space of the sample's pixels as later stages see them (`lab` needs an RGB image).",
         },
         PropSpec {
+            name: "images",
+            ty: Ty::Files(&["png", "exr"]),
+            default: Default::Absent,
+            doc: "A photometric capture: registered photographs of one surface from one camera, each under one distant light (`lights`), as a list or a pattern (`\"captures/rock_*.png\"`, sorted by name). Crop and resize apply to every image.",
+        },
+        PropSpec {
+            name: "lights",
+            ty: Ty::Calls(capture::LIGHT_CALLS),
+            default: Default::Absent,
+            doc: "With `images`: the light of each image, in order.",
+        },
+        PropSpec {
+            name: "capture",
+            ty: Ty::Path,
+            default: Default::Absent,
+            doc: "Instead of `images` + `lights`: a light-position file (`.lp`, as RTI capture tools write it: a count, then `filename x y z` per line, y up the image) naming the images, relative to itself.",
+        },
+        PropSpec {
+            name: "bit_depth",
+            ty: Ty::Int(1, 16),
+            default: Default::Absent,
+            doc: "Significant bits of a 16-bit PNG capture (12 for a 12-bit camera: full scale is 4095). Default: the files' own depth, recorded with the capture.",
+        },
+        PropSpec {
+            name: "transfer",
+            ty: Ty::Enum(capture::TRANSFERS.names),
+            default: Default::Text("auto"),
+            doc: "How a capture's values map to intensity: `auto` takes 8-bit PNGs as sRGB-encoded and 16-bit PNGs and EXRs as linear.",
+        },
+        PropSpec {
             name: "structure",
             ty: Ty::Path,
             default: Default::Absent,
@@ -70,6 +103,15 @@ pub static SPEC: KindSpec = KindSpec {
 /// that an edit to the photo does not invalidate structure analysis and vice versa.
 pub fn plan(p: &mut Planner, d: &Decl) -> Result<AnyHandle, Diagnostic> {
     let props = &d.props;
+    if capture::is_capture(d) {
+        return capture::plan(p, d).map(Handle::erase);
+    }
+    if let Some(span) = props.span("lights").or(props.span("bit_depth")).or(props.span("transfer")) {
+        return Err(Diagnostic::error(format!("sample `{}` is not a photometric capture", d.name))
+            .with_code("tessera::sample")
+            .with_label(span, "only for captures")
+            .with_help("name the capture's images with `images`, or its light-position file with `capture`"));
+    }
     let structure = props.path("structure").map(|path| {
         let stage = FnStage::keyed("sample.file", 2, (), |cx, ()| Ok(Bytes(cx.file(0)?.to_vec())));
         let span = props.span("structure").unwrap_or(d.name_span);
@@ -172,18 +214,9 @@ impl Prepare {
         Ok(Prepare { crop, resize, filter, color })
     }
 
-    /// `file` is the index of the file the bytes came from, for blame.
-    fn apply(&self, bytes: &[u8], file: usize, budget: crate::graph::Budget) -> Result<Image, StageError> {
-        let img = super::decode_image(bytes, budget)
-            .map_err(|e| StageError::new(format!("cannot decode the image: {e}")).in_file(file))?;
-        let bad = img.data.iter().filter(|v| !v.is_finite()).count();
-        if bad > 0 {
-            return Err(StageError::new(format!("the image holds {bad} NaN or infinite value(s)"))
-                .in_file(file)
-                .with_help("samples must be finite everywhere; fix or crop the file"));
-        }
-        let linear_source = raster::io::is_exr(bytes);
-        let mut img = if linear_source { img } else { raster::color::image_srgb_to_linear(&img) };
+    /// Crop, then resize: what a capture's every image goes through too.
+    pub(super) fn geometry(&self, img: Image, file: usize) -> Result<Image, StageError> {
+        let mut img = img;
         if let Some([x, y, w, h]) = self.crop {
             img = raster::resample::crop(&img, x, y, w, h).map_err(|_| {
                 StageError::new(format!(
@@ -208,6 +241,28 @@ impl Prepare {
                 return Err(overflow("resized"));
             }
         }
+        Ok(img)
+    }
+
+    /// `file` is the index of the file the bytes came from, for blame.
+    fn apply(&self, bytes: &[u8], file: usize, budget: crate::graph::Budget) -> Result<Image, StageError> {
+        let img = super::decode_image(bytes, budget)
+            .map_err(|e| StageError::new(format!("cannot decode the image: {e}")).in_file(file))?;
+        let bad = img.data.iter().filter(|v| !v.is_finite()).count();
+        if bad > 0 {
+            return Err(StageError::new(format!("the image holds {bad} NaN or infinite value(s)"))
+                .in_file(file)
+                .with_help("samples must be finite everywhere; fix or crop the file"));
+        }
+        let linear_source = raster::io::is_exr(bytes);
+        let img = if linear_source { img } else { raster::color::image_srgb_to_linear(&img) };
+        let img = self.geometry(img, file)?;
+        let largest = img.data.iter().fold(0f32, |m, v| m.max(v.abs()));
+        let overflow = |what: &str| {
+            StageError::new(format!("the image's values (up to ±{largest:.1e}) overflow 32-bit floats when {what}"))
+                .in_file(file)
+                .with_help("scale the file's values into a usual range (EXR samples are taken as linear light)")
+        };
         use super::ColorSpace;
         let img = match self.color {
             ColorSpace::Srgb => raster::color::image_linear_to_srgb(&img),
@@ -248,6 +303,14 @@ impl super::Kind for Sample {
     }
 
     fn refuse_value(&self, d: &Decl, at: Span) -> Option<Diagnostic> {
+        if capture::is_capture(d) {
+            return Some(
+                Diagnostic::error(format!("sample `{}` is a photometric capture, not an image", d.name))
+                    .with_code("tessera::sample_image")
+                    .with_label(at, "an image is needed here")
+                    .with_help("fit a `representation` to the capture and use that, or give another sample an `image`"),
+            );
+        }
         (!has_image(d)).then(|| {
             Diagnostic::error(format!("sample `{}` holds only a structure file, not an image", d.name))
                 .with_code("tessera::sample_image")

@@ -204,6 +204,25 @@ impl Checker<'_> {
                 Some(Val::Path(normalize(&dir.join(s))))
             }
             (Ty::Dir(extensions), ValueKind::Str(s)) => self.directory(s, v.span, dir, extensions),
+            (Ty::Files(extensions), ValueKind::Str(s)) => self.files_matching(s, v.span, dir, extensions),
+            (Ty::Files(extensions), ValueKind::Vector(items)) => {
+                let (mut files, mut spans) = (Vec::with_capacity(items.len()), Vec::with_capacity(items.len()));
+                for it in items {
+                    let ValueKind::Str(s) = &it.kind else { return self.mismatch(it, &Ty::Path) };
+                    let path = self.file_path(s, it.span, dir, extensions)?;
+                    files.push(path);
+                    spans.push(it.span);
+                }
+                if files.is_empty() {
+                    self.errors.push(
+                        Diagnostic::error("the list of files is empty")
+                            .with_code("tessera::type")
+                            .with_label(v.span, "name at least one file"),
+                    );
+                    return None;
+                }
+                Some(Val::Files(files, spans))
+            }
             (Ty::Enum(options), ValueKind::Ident(name)) => {
                 if options.contains(&name.as_str()) {
                     Some(Val::Enum(name.clone()))
@@ -233,6 +252,10 @@ impl Checker<'_> {
                 self.reference(name, v.span, refs).map(Val::Ref)
             }
             (Ty::Source { calls, .. }, ValueKind::Call { name, args }) => self.call(calls, name, args, v.span, dir),
+            (Ty::Calls(calls), ValueKind::Call { name, args }) => match self.call(calls, name, args, v.span, dir)? {
+                Val::Call(c) => Some(Val::Calls(vec![c])),
+                _ => None,
+            },
             (Ty::Calls(calls), ValueKind::Vector(items)) => {
                 let mut out = Vec::with_capacity(items.len());
                 let mut ok = true;
@@ -367,6 +390,81 @@ impl Checker<'_> {
         Some(Val::Dir(path, files))
     }
 
+    /// One path of a files property: not empty, with one of the extensions.
+    fn file_path(&mut self, s: &str, span: Span, dir: &Path, extensions: &[&str]) -> Option<PathBuf> {
+        let path = normalize(&dir.join(s));
+        let ok = !s.is_empty()
+            && path
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| extensions.iter().any(|x| x.eq_ignore_ascii_case(e)));
+        if !ok {
+            let list = extensions.iter().map(|e| format!("`.{e}`")).collect::<Vec<_>>().join(", ");
+            self.errors.push(
+                Diagnostic::error(format!("expected a {list} file, found `{s}`"))
+                    .with_code("tessera::type")
+                    .with_label(span, "not one of these files"),
+            );
+            return None;
+        }
+        Some(path)
+    }
+
+    /// A files property written as one string: the file it names, or the files its pattern
+    /// matches (`*` and `?` in the file name only), sorted by name.
+    fn files_matching(&mut self, s: &str, span: Span, dir: &Path, extensions: &[&str]) -> Option<Val> {
+        let (folder, pattern) = match s.rfind('/') {
+            Some(i) => (&s[..i], &s[i + 1..]),
+            None => ("", s),
+        };
+        if folder.contains(['*', '?']) {
+            self.errors.push(
+                Diagnostic::error("a file pattern may use `*` and `?` in the file name only")
+                    .with_code("tessera::pattern")
+                    .with_label(span, "wildcard in a directory name"),
+            );
+            return None;
+        }
+        if !pattern.contains(['*', '?']) {
+            let path = self.file_path(s, span, dir, extensions)?;
+            return Some(Val::Files(vec![path], vec![span]));
+        }
+        let folder = normalize(&dir.join(if folder.is_empty() { "." } else { folder }));
+        let listed = match self.loader.list(&folder) {
+            Ok(l) => l,
+            Err(e) => {
+                self.errors.push(
+                    Diagnostic::error(format!("cannot read the directory `{}`: {e}", folder.display()))
+                        .with_code("tessera::directory")
+                        .with_label(span, "this pattern's directory"),
+                );
+                return None;
+            }
+        };
+        let mut files: Vec<PathBuf> = listed
+            .into_iter()
+            .filter(|f| {
+                let name = f.file_name().and_then(|n| n.to_str()).unwrap_or("");
+                wildcard_match(pattern.as_bytes(), name.as_bytes())
+                    && f.extension()
+                        .and_then(|e| e.to_str())
+                        .is_some_and(|e| extensions.iter().any(|x| x.eq_ignore_ascii_case(e)))
+            })
+            .map(|f| normalize(&f))
+            .collect();
+        files.sort();
+        if files.is_empty() {
+            self.errors.push(
+                Diagnostic::error(format!("no file in `{}` matches `{pattern}`", folder.display()))
+                    .with_code("tessera::empty_pattern")
+                    .with_label(span, "matches nothing"),
+            );
+            return None;
+        }
+        let spans = vec![span; files.len()];
+        Some(Val::Files(files, spans))
+    }
+
     /// The numbers of a vector; a relative length in it is a part of the width at even
     /// positions and of the height at odd ones (`[x, y]`, `[x, y, w, h]`).
     fn numbers(&mut self, items: &[ast::Value], unit: Unit, range: Range) -> Option<Vec<f64>> {
@@ -464,5 +562,46 @@ mod tests {
         assert_eq!(integer_literal("1e400"), Some(None));
         assert_eq!(integer_literal("1e99999999999999999999"), Some(None));
         assert_eq!(integer_literal("1e-99999999999999999999"), None);
+    }
+}
+
+/// Whether `name` matches `pattern`: `*` any run of bytes, `?` one byte. Linear in the
+/// product of the lengths at worst (the last `*` is the only backtracking point).
+fn wildcard_match(pattern: &[u8], name: &[u8]) -> bool {
+    let (mut p, mut n) = (0, 0);
+    let mut star: Option<(usize, usize)> = None;
+    while n < name.len() {
+        if p < pattern.len() && (pattern[p] == b'?' || pattern[p] == name[n]) {
+            p += 1;
+            n += 1;
+        } else if p < pattern.len() && pattern[p] == b'*' {
+            star = Some((p, n));
+            p += 1;
+        } else if let Some((sp, sn)) = star {
+            p = sp + 1;
+            n = sn + 1;
+            star = Some((sp, sn + 1));
+        } else {
+            return false;
+        }
+    }
+    pattern[p..].iter().all(|&c| c == b'*')
+}
+
+#[cfg(test)]
+mod wildcard_tests {
+    use super::wildcard_match;
+
+    #[test]
+    fn stars_and_question_marks() {
+        let m = |p: &str, n: &str| wildcard_match(p.as_bytes(), n.as_bytes());
+        assert!(m("img_*.png", "img_030_45.png"));
+        assert!(m("*", "anything.exr"));
+        assert!(m("a?c.png", "abc.png"));
+        assert!(!m("a?c.png", "ac.png"));
+        assert!(m("*_*_*.png", "a_b_c.png"));
+        assert!(!m("*.png", "a.png.bak"));
+        assert!(m("**a", "aaa"));
+        assert!(!m("img_*.png", "im_1.png"));
     }
 }

@@ -1,0 +1,248 @@
+//! Relightable surfaces from the language (issue 14): photometric captures named by images
+//! and lights or by a light-position file, representations, relit quilted layers, and the
+//! diagnostics of captures and methods that cannot work.
+
+mod common;
+
+use common::{flat, repo, Project};
+use tessera::raster::{self, Image};
+
+/// A project holding the synthetic cobbles capture (`samples/capture/cobbles`) in `cobbles/`
+/// and `scene.tess` with `body` after a 96² scene block.
+fn project(body: &str) -> Project {
+    let p = Project::new(&[]);
+    common::copy_dir(&repo().join("samples/capture/cobbles"), &p.path("cobbles"));
+    p.write("scene.tess", &format!("scene {{\n  seed = 2\n  size = 96 x 96\n}}\n\n{body}"));
+    p
+}
+
+const GRID: &str = "grid(slants = [30 deg, 45 deg, 60 deg], tilts = [0 deg, 30 deg, 60 deg, 90 deg, 120 deg, 150 deg, 180 deg, 210 deg, 240 deg, 270 deg, 300 deg, 330 deg])";
+
+fn decode(bytes: &[u8]) -> Image {
+    raster::io::decode(bytes).expect("decodes")
+}
+
+/// RMS of `a − b` over the population standard deviation of `b` (Dong's per-image η term).
+fn eta(a: &Image, b: &Image) -> f64 {
+    let n = b.data.len() as f64;
+    let mean = b.data.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+    let var = b.data.iter().map(|&v| (f64::from(v) - mean).powi(2)).sum::<f64>() / n;
+    let sq = a.data.iter().zip(&b.data).map(|(&x, &y)| (f64::from(x) - f64::from(y)).powi(2)).sum::<f64>() / n;
+    sq.sqrt() / var.sqrt()
+}
+
+#[test]
+fn a_capture_relights_like_its_photographs() {
+    let p = project(&format!(
+        "sample cobbles {{\n  images = \"cobbles/cobbles_s*.png\"\n  lights = {GRID}\n}}\n\n\
+         representation rock {{\n  from = cobbles\n  method = eigen\n  components = 6\n}}\n\n\
+         representation stereo {{\n  from = cobbles\n}}\n\n\
+         output \"eigen.exr\" {{\n  from = rock\n  light = light(tilt = 60 deg, slant = 45 deg)\n}}\n\n\
+         output \"gradient.exr\" {{\n  from = stereo\n  light = light(tilt = 60 deg, slant = 45 deg)\n}}\n"
+    ));
+    p.tessera(&["build", "scene.tess", "-q"]).ok();
+    let truth = decode(&p.read("cobbles/cobbles_s45_t060.png"));
+    let eigen = decode(&p.read("out/scene/eigen.exr"));
+    let gradient = decode(&p.read("out/scene/gradient.exr"));
+    let (e6, eg) = (eta(&eigen, &truth), eta(&gradient, &truth));
+    // A captured light, so this is reconstruction: Eigen6 holds the highlights and shadows
+    // that Lambert's law (Gradient) cannot.
+    assert!(e6 < 0.1, "Eigen6 η {e6}");
+    assert!(eg < 0.45 && e6 < eg, "Gradient η {eg}, Eigen6 η {e6}");
+}
+
+#[test]
+fn a_light_position_file_loads_the_same_capture() {
+    let body = |sample: &str| {
+        format!(
+            "sample cobbles {{\n{sample}}}\n\nrepresentation rock {{\n  from = cobbles\n  method = ptm\n}}\n\n\
+             output \"relit.exr\" {{\n  from = rock\n  light = light(tilt = 100 deg, slant = 40 deg)\n}}\n"
+        )
+    };
+    let a = project(&body(&format!("  images = \"cobbles/cobbles_s*.png\"\n  lights = {GRID}\n")));
+    let b = project(&body("  capture = \"cobbles/cobbles.lp\"\n"));
+    a.tessera(&["build", "scene.tess", "-q"]).ok();
+    b.tessera(&["build", "scene.tess", "-q"]).ok();
+    let (x, y) = (decode(&a.read("out/scene/relit.exr")), decode(&b.read("out/scene/relit.exr")));
+    // The file's directions have six decimals.
+    let worst = x.data.iter().zip(&y.data).map(|(p, q)| (p - q).abs()).fold(0f32, f32::max);
+    assert!(worst < 1e-4, "largest difference {worst}");
+}
+
+#[test]
+fn a_quilted_representation_relights_as_its_gathered_sample() {
+    let p = project(
+        "sample cobbles {\n  capture = \"cobbles/cobbles.lp\"\n}\n\n\
+         representation rock {\n  from = cobbles\n}\n\n\
+         layer grown {\n  quilt = rock\n  block = 24 px\n  overlap = 6 px\n  metric = sad\n  light = light(tilt = 120 deg, slant = 60 deg)\n}\n\n\
+         output \"grown.exr\" {\n  from = grown\n}\n\n\
+         output \"index.png\" {\n  from = grown\n  view = index\n}\n\n\
+         output \"sample.exr\" {\n  from = rock\n  light = light(tilt = 120 deg, slant = 60 deg)\n}\n\n\
+         output \"normal.png\" {\n  from = grown\n  view = normal\n}\n\n\
+         output \"height.exr\" {\n  from = grown\n  view = height\n}\n",
+    );
+    p.tessera(&["build", "scene.tess", "-q"]).ok();
+    let grown = decode(&p.read("out/scene/grown.exr"));
+    let sample = decode(&p.read("out/scene/sample.exr"));
+    let index = decode(&p.read("out/scene/index.png"));
+    // Relighting is per pixel: the relit layer is the relit sample gathered through the
+    // index map (the index view holds the pixel centres `(x + ½) / w`, `(y + ½) / h`).
+    let (sw, sh) = (sample.width as f32, sample.height as f32);
+    let mut worst = 0f32;
+    for y in 0..grown.height {
+        for x in 0..grown.width {
+            let sx = (index.get(x, y, 0) * sw - 0.5).round() as usize;
+            let sy = (index.get(x, y, 1) * sh - 0.5).round() as usize;
+            worst = worst.max((grown.get(x, y, 0) - sample.get(sx, sy, 0)).abs());
+        }
+    }
+    assert!(worst < 1e-5, "relit layer vs gathered relit sample: {worst}");
+    let normal = decode(&p.read("out/scene/normal.png"));
+    assert_eq!((normal.width, normal.height, normal.channels), (96, 96, 3));
+    let height = decode(&p.read("out/scene/height.exr"));
+    assert_eq!(height.channels, 1);
+}
+
+/// A build that fails with `message`, pointing at `snippet`; returns stderr.
+#[track_caller]
+fn refused(body: &str, message: &str, snippet: &str) -> String {
+    let p = project(body);
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    let err = run.stderr();
+    assert!(flat(&err).contains(message), "expected `{message}` in:\n{err}");
+    assert!(err.contains(snippet), "expected the label on `{snippet}`:\n{err}");
+    assert!(!p.path("out/scene").exists(), "nothing is written");
+    err
+}
+
+fn twelve_at_45() -> String {
+    "  images = \"cobbles/cobbles_s45_*.png\"\n  lights = grid(slants = [45 deg], tilts = [0 deg, 30 deg, 60 deg, 90 deg, 120 deg, 150 deg, 180 deg, 210 deg, 240 deg, 270 deg, 300 deg, 330 deg])\n".into()
+}
+
+#[test]
+fn methods_that_cannot_work_are_refused_at_the_property() {
+    let rep = |sample: &str, props: &str| {
+        format!(
+            "sample cobbles {{\n{sample}}}\n\nrepresentation rock {{\n  from = cobbles\n{props}}}\n\n\
+             output \"r.png\" {{\n  from = rock\n}}\n"
+        )
+    };
+    refused(&rep(&twelve_at_45(), "  method = ptm\n"), "PTM needs lights at two or more slants", "method = ptm");
+    let coplanar = "  images = [\"cobbles/cobbles_s30_t000.png\", \"cobbles/cobbles_s45_t000.png\", \"cobbles/cobbles_s60_t000.png\"]\n  lights = [light(tilt = 0 deg, slant = 30 deg), light(tilt = 0 deg, slant = 45 deg), light(tilt = 0 deg, slant = 60 deg)]\n";
+    refused(&rep(coplanar, "  method = gradient\n"), "coplanar or degenerate", "method = gradient");
+    refused(&rep(coplanar, "  method = three_i\n"), "every triple of lights is coplanar", "method = three_i");
+    refused(
+        &rep(&twelve_at_45(), "  method = eigen\n  components = 20\n"),
+        "Eigen-20 needs k between 1 and the number of images (12)",
+        "components = 20",
+    );
+    refused(
+        &format!(
+            "sample cobbles {{\n  capture = \"cobbles/cobbles.lp\"\n}}\n\nrepresentation rock {{\n  from = cobbles\n  method = eigen\n}}\n\n\
+             output \"r.png\" {{\n  from = rock\n  light = light(tilt = 0 deg, slant = 80 deg)\n}}\n"
+        ),
+        "outside the captured slant range",
+        "light = light(tilt = 0 deg, slant = 80 deg)",
+    );
+}
+
+#[test]
+fn bad_captures_are_refused_at_the_file() {
+    let rep = "representation rock {\n  from = cobbles\n}\n\noutput \"r.png\" {\n  from = rock\n}\n";
+    // A missing light: 36 images, 35 lights.
+    let short = GRID.replace(", 330 deg]", "]");
+    refused(
+        &format!("sample cobbles {{\n  images = \"cobbles/cobbles_s*.png\"\n  lights = {short}\n}}\n\n{rep}"),
+        "33 light(s) for 36 image(s)",
+        "lights = grid",
+    );
+    // Images of different sizes.
+    let p = project(&format!("sample cobbles {{\n  images = \"cobbles/*.png\"\n  lights = {GRID}\n}}\n\n{rep}"));
+    let small = Image::filled(48, 48, 1, 0.5);
+    p.write_bytes("cobbles/zz_small.png", &raster::io::encode_png(&small, 16).unwrap());
+    for f in ["cobbles/truth_height.png", "cobbles/truth_albedo.png"] {
+        std::fs::remove_file(p.path(f)).unwrap();
+    }
+    p.write(
+        "scene.tess",
+        &format!("scene {{\n  seed = 2\n  size = 96 x 96\n}}\n\nsample cobbles {{\n  images = \"cobbles/*.png\"\n  lights = [{GRID}, light(tilt = 0 deg, slant = 10 deg)]\n}}\n\n{rep}"),
+    );
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    let err = flat(&run.stderr());
+    assert!(err.contains("`zz_small.png` is 48 x 48") && err.contains("must be registered"), "{err}");
+    // A light-position file with a malformed line, and one naming a missing image.
+    let p = project(&format!("sample cobbles {{\n  capture = \"cobbles/bad.lp\"\n}}\n\n{rep}"));
+    p.write("cobbles/bad.lp", "2\ncobbles_s30_t000.png 0.5 0 0.866\ncobbles_s30_t030.png 0.4 zero 0.8\n");
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    let err = flat(&run.stderr());
+    assert!(err.contains("line 3 of `bad.lp`: `zero` is not a number"), "{err}");
+    assert!(run.stderr().contains("capture = \"cobbles/bad.lp\""), "{}", run.stderr());
+    p.write("cobbles/bad.lp", "2\ncobbles_s30_t000.png 0.5 0 0.866\nnot_there.png 0.4 0 0.8\n");
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    let err = flat(&run.stderr());
+    assert!(err.contains("not_there.png"), "{err}");
+    assert!(run.stderr().contains("capture = \"cobbles/bad.lp\""), "{}", run.stderr());
+    // NaN in an EXR image.
+    let p = project(&format!(
+        "sample cobbles {{\n  images = [\"a.exr\", \"cobbles/cobbles_s45_t000.png\", \"cobbles/cobbles_s45_t090.png\"]\n  lights = [light(tilt = 0 deg, slant = 30 deg), light(tilt = 0 deg, slant = 45 deg), light(tilt = 90 deg, slant = 45 deg)]\n}}\n\n{rep}"
+    ));
+    let mut nan = Image::filled(96, 96, 1, 0.5);
+    nan.data[5 * 96 + 7] = f32::NAN;
+    p.write_bytes("a.exr", &raster::io::encode_exr(&nan).unwrap());
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    let err = flat(&run.stderr());
+    assert!(
+        err.contains("a.exr") && (err.contains("NaN") || err.contains("not finite") || err.contains("non-finite")),
+        "{err}"
+    );
+    assert!(run.stderr().contains("\"a.exr\""), "{}", run.stderr());
+}
+
+#[test]
+fn capture_properties_belong_to_captures() {
+    refused(
+        "sample s {\n  image = \"cobbles/truth_albedo.png\"\n  lights = [light(tilt = 0 deg, slant = 30 deg)]\n}\n\noutput \"s.png\" {\n  from = s\n}\n",
+        "is not a photometric capture",
+        "lights = [light(tilt = 0 deg, slant = 30 deg)]",
+    );
+    refused(
+        "sample cobbles {\n  capture = \"cobbles/cobbles.lp\"\n}\n\nlayer l {\n  quilt = cobbles\n}\n\noutput \"l.png\" {\n  from = l\n}\n",
+        "is a photometric capture, not an image",
+        "quilt = cobbles",
+    );
+    refused(
+        "sample s {\n  image = \"cobbles/truth_albedo.png\"\n}\n\nlayer l {\n  quilt = s\n  light = light(tilt = 0 deg, slant = 30 deg)\n}\n\noutput \"l.png\" {\n  from = l\n}\n",
+        "does not grow a representation",
+        "light = light(tilt = 0 deg, slant = 30 deg)",
+    );
+    refused(
+        "sample cobbles {\n  images = \"cobbles/nothing_*.png\"\n  lights = [light(tilt = 0 deg, slant = 30 deg)]\n}\n\nrepresentation r {\n  from = cobbles\n}\n\noutput \"r.png\" {\n  from = r\n}\n",
+        "matches `nothing_*.png`",
+        "\"cobbles/nothing_*.png\"",
+    );
+}
+
+#[test]
+fn an_overlap_outside_a_sixth_to_a_third_of_the_block_is_a_warning() {
+    let scene = |overlap: &str| {
+        format!(
+            "sample cobbles {{\n  capture = \"cobbles/cobbles.lp\"\n}}\n\nrepresentation rock {{\n  from = cobbles\n}}\n\n\
+             layer grown {{\n  quilt = rock\n  block = 24 px\n  overlap = {overlap}\n}}\n\noutput \"g.png\" {{\n  from = grown\n}}\n"
+        )
+    };
+    let run = project(&scene("2 px")).tessera(&["build", "scene.tess"]);
+    run.ok();
+    assert!(
+        flat(&run.stderr()).contains("the overlap (2 px) is outside 1/6–1/3 of the block (24 px)"),
+        "{}",
+        run.stderr()
+    );
+    let run = project(&scene("6 px")).tessera(&["build", "scene.tess"]);
+    run.ok();
+    assert!(!run.stderr().contains("outside 1/6"), "{}", run.stderr());
+}
