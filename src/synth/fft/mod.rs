@@ -4,8 +4,8 @@
 //!   rows, so only the half spectrum `w/2 + 1` wide is computed, then complex column transforms).
 //! - [`fft_real`]: the full complex spectrum of a real plane (Hermitian completion of the half one).
 //! - [`Dct2`]: separable DCT-II / DCT-III (rustdct), which diagonalises Neumann problems.
-//! - `correlate`: zero-padded transforms of two real planes packed into one complex plane
-//!   (`re + i·im`), for quilting's SSD cross-correlation.
+//! - `correlate`: zero-padded half-spectrum transforms of real planes and the summed
+//!   correlations of small templates with them, for quilting's SSD cross-correlation.
 //!
 //! Every transform is separable: rows, a cache-tiled transpose, rows again. Spectra stay
 //! transposed (`kx * stride + ky`), which saves the transpose back between a forward and an

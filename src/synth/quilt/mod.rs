@@ -25,7 +25,8 @@
 //! other channel registered with the sample can be gathered later with [`gather`].
 //!
 //! **Speed.** Every candidate position is scored in bulk: SSD by FFT cross-correlation (`f64`, the
-//! sample spectra computed once, two real planes per complex transform), SAD by an `f32` sweep; each
+//! samples' half spectra computed once, each block's templates transformed column by column in
+//! cache), SAD by an `f32` sweep; each
 //! with a rounding bound that selects the shortlist re-scored exactly in `f64`, so the choice never
 //! depends on bulk rounding. Blocks whose footprints do not overlap (a wavefront over the grid) are
 //! computed in parallel; when a wave has fewer blocks than threads, the work inside a block is split.

@@ -23,7 +23,7 @@ use rayon::prelude::*;
 
 use super::params::Metric;
 use crate::raster::Image;
-use crate::synth::fft::correlate::{mul_conj_acc, Cx, Plan, Real};
+use crate::synth::fft::correlate::{self, Cx, Plan, Real};
 use crate::synth::rng::Rng;
 
 /// One source image that blocks are copied from: an input sample, possibly rotated.
@@ -40,7 +40,7 @@ pub(super) struct Source {
     /// Allowed candidates (stride, user mask, rotation validity), as `qy * cw + qx`, ascending.
     pub allowed: Vec<u32>,
     pub allowed_mask: Vec<bool>,
-    /// Spectra of the packed real planes `[S_0 … S_{C−1}, Q_o?, Q_g?]` (SSD only).
+    /// Half spectra of the real planes `[S_0 … S_{C−1}, Q_o?, Q_g?]` (SSD only).
     pub spectra: Vec<Vec<Cx>>,
     /// L1 and L2 norms of each real plane (for the FFT rounding bound).
     pub norm1: Vec<f64>,
@@ -75,14 +75,17 @@ pub(super) struct Model {
     /// Sample channels with a non-zero overlap weight, and guide channels with a non-zero weight.
     pub active_o: Vec<usize>,
     pub active_g: Vec<usize>,
-    /// Index of the `Q_o = Σ μ_o S²` and `Q_g = Σ μ_g S²` real planes, if used.
+    /// Index of the `Q_o = Σ μ_o S²` real plane, if used.
     pub q_o: Option<usize>,
-    pub q_g: Option<usize>,
+    /// Index of the `Q_g = Σ μ_g S²` real plane and its factor, if used: `Q_o`'s with the ratio
+    /// `Q_g / Q_o` when the two are proportional (plain guided quilting: one plane less to
+    /// correlate), else a plane of its own with factor 1.
+    pub q_g: Option<(usize, f64)>,
 }
 
 impl Model {
     pub fn n_real(&self) -> usize {
-        self.channels + usize::from(self.q_o.is_some()) + usize::from(self.q_g.is_some())
+        self.channels + usize::from(self.q_o.is_some()) + usize::from(self.q_g.is_some_and(|q| Some(q.0) != self.q_o))
     }
 
     #[inline]
@@ -111,7 +114,7 @@ impl Model {
             let mu: Vec<(usize, f64)> = self.active_o.iter().map(|&c| (c, self.mu_o[c])).collect();
             planes.push(squares(&mu));
         }
-        if self.q_g.is_some() {
+        if self.q_g.is_some_and(|q| Some(q.0) != self.q_o) {
             let mu: Vec<(usize, f64)> = self.active_g.iter().map(|&i| (self.guide_map[i], self.mu_g[i])).collect();
             planes.push(squares(&mu));
         }
@@ -125,13 +128,11 @@ pub(super) fn prepare_spectra(model: &Model, plan: &Plan, src: &mut Source) {
     let planes = model.real_planes(&src.work, w * h);
     src.norm1 = planes.iter().map(|p| p.iter().map(|v| v.abs()).sum()).collect();
     src.norm2 = planes.iter().map(|p| p.iter().map(|v| v * v).sum::<f64>().sqrt()).collect();
-    let mut rows = Vec::new();
     src.spectra = planes
-        .chunks(2)
-        .map(|pair| {
-            let packed: Vec<Cx> = (0..w * h).map(|i| Cx::new(pair[0][i], pair.get(1).map_or(0.0, |p| p[i]))).collect();
+        .iter()
+        .map(|plane| {
             let mut out = vec![Cx::new(0.0, 0.0); plan.len()];
-            plan.forward(&packed, w, h, &mut rows, &mut out, true);
+            plan.forward(plane, w, h, &mut out, true);
             out
         })
         .collect();
@@ -245,10 +246,8 @@ pub(super) struct Scratch {
     /// Whether the work inside one block may be split over threads (off when whole blocks already
     /// run in parallel).
     pub par: bool,
-    rows: Vec<Cx>,
-    tspec: Vec<Cx>,
-    acc: Vec<Cx>,
     real: Vec<Real>,
+    fft: correlate::Scratch,
 }
 
 /// FFT-correlated approximate errors of every candidate (row-major grid) and their rounding bound.
@@ -278,36 +277,26 @@ pub(super) fn fft_all(model: &Model, t: &Template, src: &Source, plan: &Plan, s:
             tau[model.guide_map[gi]][i] -= 2.0 * coef * g;
             constant += coef * g * g;
         }
-        if let Some(q) = model.q_g {
-            tau[q][i] += t.gd_w[k];
+        if let Some((q, f)) = model.q_g {
+            tau[q][i] += f * t.gd_w[k];
         }
     }
-    s.acc.resize(plan.len(), Cx::new(0.0, 0.0));
-    s.tspec.resize(plan.len(), Cx::new(0.0, 0.0));
     let mut bound = 0.0f64;
-    let mut first = true;
-    for (k, (planes, spec)) in tau.chunks(2).zip(&src.spectra).enumerate() {
-        if planes.iter().all(|p| p.iter().all(|&v| v == 0.0)) {
+    let mut pairs: Vec<(&[Real], &[Cx])> = Vec::with_capacity(n_real);
+    for (k, (p, spec)) in tau.iter().zip(&src.spectra).enumerate() {
+        if p.iter().all(|&v| v == 0.0) {
             continue;
         }
-        for (j, p) in planes.iter().enumerate() {
-            let l1: f64 = p.iter().map(|v| v.abs()).sum();
-            let l2: f64 = p.iter().map(|v| v * v).sum::<f64>().sqrt();
-            bound += 2.0 * l1 * src.norm2[2 * k + j] + l2 * src.norm1[2 * k + j];
-        }
-        let packed: Vec<Cx> = (0..n).map(|i| Cx::new(planes[0][i], planes.get(1).map_or(0.0, |p| p[i]))).collect();
-        plan.forward(&packed, bw, bh, &mut s.rows, &mut s.tspec, s.par);
-        mul_conj_acc(&mut s.acc, &s.tspec, spec, first, s.par);
-        first = false;
-    }
-    if first {
-        s.acc.fill(Cx::new(0.0, 0.0));
+        let l1: f64 = p.iter().map(|v| v.abs()).sum();
+        let l2: f64 = p.iter().map(|v| v * v).sum::<f64>().sqrt();
+        bound += 2.0 * l1 * src.norm2[k] + l2 * src.norm1[k];
+        pairs.push((p, spec));
     }
     let mut errors = std::mem::take(&mut s.real);
-    plan.inverse_real(&mut s.acc, src.cw, src.ch, constant, &mut s.rows, &mut errors, s.par);
+    plan.correlate(&pairs, bw, bh, src.cw, src.ch, constant, &mut errors, &mut s.fft, s.par);
     // Norm-wise rounding bound of FFT correlation (forward, product, inverse), with a safety factor;
     // orders of magnitude above the observed error, and still far below error differences that matter.
-    let log_n = (plan.len() as f64).log2().max(1.0);
+    let log_n = ((plan.nx * plan.ny) as f64).log2().max(1.0);
     let margin = 8.0 * f64::EPSILON * log_n * bound + 1e-12 * constant.abs() + f64::MIN_POSITIVE;
     (errors, margin)
 }

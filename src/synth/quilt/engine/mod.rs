@@ -82,9 +82,23 @@ pub(super) fn run(
         n_real += 1;
         n_real - 1
     });
-    let q_g = (!active_g.is_empty()).then(|| {
-        n_real += 1;
-        n_real - 1
+    // Σ μ_g S² per sample channel; a multiple of Σ μ_o S² (to a few roundings, far inside the
+    // FFT scores' margin) shares its plane.
+    let mut per_channel_g = vec![0.0f64; channels];
+    for &i in &active_g {
+        per_channel_g[guide_map[i]] += mu_g[i];
+    }
+    let ratio = q_o.and_then(|_| {
+        let f = per_channel_g[active_o[0]] / mu_o[active_o[0]];
+        let close = |c: usize| (per_channel_g[c] - f * mu_o[c]).abs() <= 4.0 * f64::EPSILON * per_channel_g[c].abs();
+        (f > 0.0 && f.is_finite() && (0..channels).all(close)).then_some(f)
+    });
+    let q_g = (!active_g.is_empty()).then(|| match (q_o, ratio) {
+        (Some(q), Some(f)) => (q, f),
+        _ => {
+            n_real += 1;
+            (n_real - 1, 1.0)
+        }
     });
     let model = Model {
         channels,
@@ -106,7 +120,7 @@ pub(super) fn run(
     let plan = (p.metric == Metric::Ssd).then(|| {
         let mw = samples.iter().map(|s| s.width).max().unwrap_or(1);
         let mh = samples.iter().map(|s| s.height).max().unwrap_or(1);
-        Plan::new(mw, mh)
+        Plan::new(mw, mh, b)
     });
     let mut sources: Vec<Source> = Vec::with_capacity(samples.len() * copies);
     for (si, sample) in samples.iter().enumerate() {
