@@ -138,10 +138,8 @@ fn methods_that_cannot_work_are_refused_at_the_property() {
         "components = 20",
     );
     refused(
-        &format!(
-            "sample cobbles {{\n  capture = \"cobbles/cobbles.lp\"\n}}\n\nrepresentation rock {{\n  from = cobbles\n  method = eigen\n}}\n\n\
-             output \"r.png\" {{\n  from = rock\n  light = light(tilt = 0 deg, slant = 80 deg)\n}}\n"
-        ),
+        "sample cobbles {\n  capture = \"cobbles/cobbles.lp\"\n}\n\nrepresentation rock {\n  from = cobbles\n  method = eigen\n}\n\n\
+         output \"r.png\" {\n  from = rock\n  light = light(tilt = 0 deg, slant = 80 deg)\n}\n",
         "outside the captured slant range",
         "light = light(tilt = 0 deg, slant = 80 deg)",
     );

@@ -303,6 +303,13 @@ fn typed(rng: &mut Rng, prop: &str, ty: &Ty, names: &Names, depth: usize) -> Str
                 _ => format!("\"{}\"", rng.pick(pool)),
             }
         }
+        Ty::Files(_) => match if names.noise > 0.0 { rng.below(12) } else { 2 } {
+            0 => "\"missing_*.png\"".into(),
+            1 => "[]".into(),
+            2 => format!("[\"{}\", \"{}\"]", rng.pick(IMAGES), rng.pick(IMAGES)),
+            3 => "\"*/x?.png\"".into(),
+            _ => format!("\"{}\"", rng.pick(IMAGES)),
+        },
         Ty::Dir(_) => match rng.below(if names.noise > 0.0 { 12 } else { 1000 }) {
             0 => "\"missing\"".into(),
             1 => "\"img.png\"".into(),

@@ -43,6 +43,7 @@ impl Encoded for Dressing {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raster::Image;
 
     #[test]
     fn pack_round_trips_and_refuses_truncation() {

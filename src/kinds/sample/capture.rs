@@ -193,7 +193,7 @@ pub fn degrees(tilt: f64, slant: f64) -> [f64; 2] {
 #[allow(clippy::type_complexity)]
 fn from_lp(
     p: &Planner,
-    path: &PathBuf,
+    path: &std::path::Path,
     span: crate::lang::source::Span,
 ) -> Result<(Vec<(PathBuf, crate::lang::source::Span)>, Vec<[f64; 2]>), Diagnostic> {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -221,8 +221,9 @@ fn from_lp(
             .with_label(span, "this light-position file"));
         }
         files.push((crate::lang::normalize(&dir.join(&e.file)), span));
-        let (tilt, slant) = lp::tilt_slant(e.direction);
-        lights.push([tilt, slant]);
+        let [x, y, z] = e.direction;
+        let l = crate::synth::relight::Light::from_rti_direction(x, y, z);
+        lights.push([l.tilt_deg, l.slant_deg]);
     }
     Ok((files, lights))
 }

@@ -2,10 +2,10 @@
 //! one `filename x y z` line per image giving the direction towards the light. Existing
 //! captures load as they are.
 //!
-//! The tools' frame has x to the right of the image, y up it and z towards the camera;
-//! tessera's has y down the rows (the row index), so y changes sign on reading.
+//! Directions stay in the tools' frame (x to the right of the image, y up it, z towards the
+//! camera); `Light::from_rti_direction` turns them into tessera's, whose y runs down the rows.
 
-/// One image of a capture and the direction of its light, in tessera's frame (unit length).
+/// One image of a capture and the direction of its light, in the file's frame (unit length).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LpEntry {
     pub file: String,
@@ -67,21 +67,13 @@ pub fn parse(text: &str) -> Result<Vec<LpEntry>, LpError> {
             return Err(err(line, format!("the light is not above the surface (z = {})", v[2])));
         }
         let file = name.join(" ");
-        out.push(LpEntry { file, direction: [v[0] / len, -v[1] / len, v[2] / len], line });
+        out.push(LpEntry { file, direction: [v[0] / len, v[1] / len, v[2] / len], line });
     }
     if out.len() < n {
         let last = text.lines().count().max(1);
         return Err(err(last, format!("the first line announces {n} images, the file lists {}", out.len())));
     }
     Ok(out)
-}
-
-/// `(tilt, slant)` in degrees of a unit direction: tilt from the x axis towards y in
-/// [0, 360), slant from the z axis.
-pub fn tilt_slant(d: [f64; 3]) -> (f64, f64) {
-    let slant = d[2].clamp(-1.0, 1.0).acos().to_degrees();
-    let tilt = d[1].atan2(d[0]).to_degrees().rem_euclid(360.0);
-    (tilt, slant)
 }
 
 #[cfg(test)]
@@ -95,12 +87,14 @@ mod tests {
         assert_eq!(e.len(), 3);
         assert_eq!(e[1].file, "img 01.png");
         assert_eq!(e[1].line, 5);
-        // y up in the file, down the rows here.
-        assert!((e[1].direction[1] + 0.707107).abs() < 1e-6);
-        let (tilt, slant) = tilt_slant(e[0].direction);
-        assert!(tilt.abs() < 1e-9 && (slant - 30.0).abs() < 1e-4, "{tilt} {slant}");
-        let (tilt, slant) = tilt_slant(e[2].direction);
-        assert!((tilt - 180.0).abs() < 1e-9 && (slant - 45.0).abs() < 1e-9);
+        assert!((e[1].direction[1] - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-6);
+        // y up the image in the file, down the rows in tessera: tilt 90° there is 270° here.
+        let [x, y, z] = e[1].direction;
+        let l = crate::synth::relight::Light::from_rti_direction(x, y, z);
+        assert!((l.tilt_deg - 270.0).abs() < 1e-6 && (l.slant_deg - 45.0).abs() < 1e-4, "{l:?}");
+        let [x, y, z] = e[2].direction;
+        let l = crate::synth::relight::Light::from_rti_direction(x, y, z);
+        assert!((l.tilt_deg - 180.0).abs() < 1e-9 && (l.slant_deg - 45.0).abs() < 1e-9, "{l:?}");
     }
 
     #[test]
