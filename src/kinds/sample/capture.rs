@@ -11,7 +11,7 @@ use crate::kinds::artifact::{pack, unpack};
 use crate::kinds::{Encoded, FnStage, Planner};
 use crate::lang::ir::Call;
 use crate::lang::schema::{CallSpec, Default, PropSpec, Range, Ty, Unit, ANY};
-use crate::lang::{Decl, Diagnostic};
+use crate::lang::{Decl, Diagnostic, Val};
 use crate::raster::{self, Image};
 
 const LIGHT_DOC: &str =
@@ -164,8 +164,6 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Capture>, Diagnostic> {
     let stage = FnStage::keyed("sample.capture", 1, loading, load);
     Ok(p.add(format!("sample {}", d.name), stage, Inputs::new(), files))
 }
-
-use crate::lang::Val;
 
 /// The lights of `light(...)` and `grid(...)` calls, in order, as `(tilt, slant)` in degrees.
 fn expand(calls: &[Call]) -> Vec<[f64; 2]> {
