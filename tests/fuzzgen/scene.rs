@@ -107,6 +107,8 @@ pub fn generate(rng: &mut Rng) -> Generated {
             // can fail.
             match spec.name {
                 "scene" | "sample" | "surface" => 1,
+                // Needs a photometric capture, which these samples are not.
+                "representation" => 0,
                 "output" => 1 + rng.below(2),
                 "map" => 1 + rng.below(2),
                 _ => usize::from(rng.chance(0.3)),
@@ -230,9 +232,12 @@ fn props(rng: &mut Rng, specs: &[PropSpec], names: &Names, depth: usize, out: &m
             match p.name {
                 "image" | "structure" => true,
                 "crop" | "from" => false,
+                // Capture properties make a different sample (a photometric set); the
+                // capture tests build those.
+                "images" | "lights" | "capture" | "bit_depth" | "transfer" => false,
                 _ => present,
             }
-        } else if names.noise == 0.0 && kind == "output" && matches!(p.name, "view" | "format") {
+        } else if names.noise == 0.0 && kind == "output" && matches!(p.name, "view" | "format" | "light" | "normals") {
             false
         } else {
             present

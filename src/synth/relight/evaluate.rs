@@ -15,7 +15,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::represent::{self, extract, information, Method};
-use super::{PhotoStack, RelightError};
+use crate::synth::relight::error::RelightError;
+use crate::synth::relight::stack::PhotoStack;
 
 /// η of one mode, with the per-image terms `e_k / std_k` and the total Frobenius error.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -7,7 +7,9 @@
 
 use glam::DVec3;
 
-use super::{grid, Light, PhotoStack};
+use crate::synth::relight::light::grid;
+use crate::synth::relight::light::Light;
+use crate::synth::relight::stack::PhotoStack;
 
 /// The four scenarios: amplitude `a`, specular weight `k_s`, exponent `e`.
 #[derive(Clone, Copy, Debug, PartialEq)]

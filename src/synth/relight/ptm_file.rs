@@ -15,7 +15,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::represent::ptm_vector;
-use super::{Light, RelightError};
+use crate::synth::relight::error::RelightError;
+use crate::synth::relight::light::Light;
 
 /// The two uncompressed formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

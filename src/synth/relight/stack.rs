@@ -4,7 +4,8 @@
 //! Lambertian truth) are below f32 rounding (6e-8 relative), and the 36 × 1 Mpx stack (288 MB)
 //! still fits comfortably; the maps that go on to quilting are narrowed to f32 only then.
 
-use super::{Light, RelightError};
+use crate::synth::relight::error::RelightError;
+use crate::synth::relight::light::Light;
 
 /// Rec. 709 luminance weights for linear RGB; the luminance a colour stack is fitted on.
 pub const LUMA_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];

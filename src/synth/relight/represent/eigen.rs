@@ -10,20 +10,11 @@
 
 use nalgebra::{DMatrix, SymmetricEigen};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
-use super::{planes, project, Basis, Method, Representation};
-use crate::synth::relight::{Light, PhotoStack, RelightError};
-
-/// Eigen's basis: `M2` (`k × n`, row-major: row `c` is component `c`'s coefficient in each
-/// image), the images' lights, and every singular value of the stack (descending).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct EigenBasis {
-    pub k: usize,
-    pub lights: Vec<Light>,
-    pub m2: Vec<f64>,
-    pub singular_values: Vec<f64>,
-}
+use super::types::{planes, project, Basis, EigenBasis, Method, Representation};
+use crate::synth::relight::error::RelightError;
+use crate::synth::relight::light::Light;
+use crate::synth::relight::stack::PhotoStack;
 
 /// Slants closer than this (degrees) are one grid row; tilts closer are one node.
 const SAME_DEG: f64 = 1e-9;

@@ -5,8 +5,9 @@ use glam::DVec3;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use super::{pinv_lights, planes, project, Basis, Method, Representation};
-use crate::synth::relight::{PhotoStack, RelightError};
+use super::types::{pinv_lights, planes, project, Basis, Method, Representation};
+use crate::synth::relight::error::RelightError;
+use crate::synth::relight::stack::PhotoStack;
 
 /// The smallest `n_z` a fitted normal may have: below it (a normal lying in the image plane or
 /// facing away from the camera, which the Lambertian fit of noisy or shadowed data can give)

@@ -7,8 +7,9 @@
 use glam::DVec3;
 use nalgebra::DMatrix;
 
-use super::{pinv_lights, planes, project, Basis, Method, Representation};
-use crate::synth::relight::{PhotoStack, RelightError};
+use super::types::{pinv_lights, planes, project, Basis, Method, Representation};
+use crate::synth::relight::error::RelightError;
+use crate::synth::relight::stack::PhotoStack;
 
 /// The PTM lighting vector of a unit light.
 pub fn ptm_vector(l: DVec3) -> [f64; 6] {

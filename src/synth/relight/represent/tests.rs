@@ -5,9 +5,12 @@ use nalgebra::DMatrix;
 
 use super::*;
 use crate::synth::quilt::{gather, quilt, Metric, QuiltParams};
+use crate::synth::relight::error::RelightError;
 use crate::synth::relight::evaluate::eta;
 use crate::synth::relight::fixtures::{lights36, quantise, render, scenario, shade, Scenario};
-use crate::synth::relight::{grid, Light, PhotoStack, RelightError};
+use crate::synth::relight::light::grid;
+use crate::synth::relight::light::Light;
+use crate::synth::relight::stack::PhotoStack;
 use crate::synth::rng::Rng;
 
 const ALL: [Method; 5] = [Method::ThreeI, Method::Gradient, Method::Ptm, Method::Eigen(3), Method::Eigen(6)];

@@ -6,8 +6,10 @@
 use glam::DVec3;
 use nalgebra::Matrix3;
 
-use super::{Basis, Method, Representation};
-use crate::synth::relight::{Light, PhotoStack, RelightError};
+use super::types::{Basis, Method, Representation};
+use crate::synth::relight::error::RelightError;
+use crate::synth::relight::light::Light;
+use crate::synth::relight::stack::PhotoStack;
 
 /// The thesis's triple: slant 45°, tilts 0°, 90°, 180° (as (tilt, slant)).
 pub const DEFAULT_TRIPLE: [(f64, f64); 3] = [(0.0, 45.0), (90.0, 45.0), (180.0, 45.0)];
