@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{flat, repo, Project};
+use common::{flat, ran, repo, Project};
 use tessera::raster::{self, Image};
 
 /// A project holding the synthetic cobbles capture (`samples/capture/cobbles`) in `cobbles/`
@@ -243,4 +243,115 @@ fn an_overlap_outside_a_sixth_to_a_third_of_the_block_is_a_warning() {
     let run = project(&scene("6 px")).tessera(&["build", "scene.tess"]);
     run.ok();
     assert!(!run.stderr().contains("outside 1/6"), "{}", run.stderr());
+}
+
+/// A layer grown under an orientation field relights each pixel in the frame of the rotated
+/// copy it came from (`τ → τ − θ`): with a constant quarter turn every copy is an exact
+/// permutation of the sample, so the relit layer must be the sample relit at the turned light,
+/// turned, and gathered; its maps, rewritten into the image frame, have `(p, q)` turned too.
+#[test]
+fn a_layer_grown_under_an_orientation_field_relights_in_each_pixels_frame() {
+    let p = project(
+        "sample cobbles {\n  capture = \"cobbles/cobbles.lp\"\n}\n\n\
+         representation rock {\n  from = cobbles\n}\n\n\
+         map turn {\n  from = direction(angle = 90 deg)\n}\n\n\
+         layer grown {\n  quilt = rock\n  block = 24 px\n  overlap = 6 px\n  orientation = turn\n  copies = 4\n  light = light(tilt = 120 deg, slant = 60 deg)\n}\n\n\
+         output \"grown.exr\" {\n  from = grown\n}\n\n\
+         output \"maps.exr\" {\n  from = grown\n  view = maps\n}\n\n\
+         output \"index.png\" {\n  from = grown\n  view = index\n}\n\n\
+         output \"turned.exr\" {\n  from = rock\n  light = light(tilt = 30 deg, slant = 60 deg)\n}\n\n\
+         output \"sample_maps.exr\" {\n  from = rock\n  view = maps\n}\n",
+    );
+    p.tessera(&["build", "scene.tess", "-q"]).ok();
+    let grown = decode(&p.read("out/scene/grown.exr"));
+    let maps = decode(&p.read("out/scene/maps.exr"));
+    let turned = decode(&p.read("out/scene/turned.exr"));
+    let sample_maps = decode(&p.read("out/scene/sample_maps.exr"));
+    let index = decode(&p.read("out/scene/index.png"));
+    let n = turned.width;
+    let (mut worst_lit, mut worst_pq) = (0f32, 0f32);
+    for y in 0..grown.height {
+        for x in 0..grown.width {
+            let cx = (index.get(x, y, 0) * n as f32 - 0.5).round() as usize;
+            let cy = (index.get(x, y, 1) * n as f32 - 0.5).round() as usize;
+            // Pixel (cx, cy) of the quarter-turned copy is pixel (cy, n − 1 − cx) of the sample.
+            let (sx, sy) = (cy, n - 1 - cx);
+            worst_lit = worst_lit.max((grown.get(x, y, 0) - turned.get(sx, sy, 0)).abs());
+            // R(90°)·(p, q) = (−q, p); the albedo is unchanged.
+            let (sp, sq, sa) = (sample_maps.get(sx, sy, 0), sample_maps.get(sx, sy, 1), sample_maps.get(sx, sy, 2));
+            for (got, want) in [(maps.get(x, y, 0), -sq), (maps.get(x, y, 1), sp), (maps.get(x, y, 2), sa)] {
+                worst_pq = worst_pq.max((got - want).abs());
+            }
+        }
+    }
+    assert!(worst_lit < 1e-5, "relit layer vs turned relit sample: {worst_lit}");
+    assert!(worst_pq < 1e-5, "maps in the image frame: {worst_pq}");
+}
+
+#[test]
+fn eigen_maps_of_a_layer_grown_rotated_are_refused() {
+    refused(
+        "sample cobbles {\n  capture = \"cobbles/cobbles.lp\"\n}\n\n\
+         representation rock {\n  from = cobbles\n  method = eigen\n}\n\n\
+         map turn {\n  from = direction(angle = 30 deg)\n}\n\n\
+         layer grown {\n  quilt = rock\n  block = 24 px\n  overlap = 6 px\n  orientation = turn\n}\n\n\
+         output \"maps.exr\" {\n  from = grown\n  view = maps\n}\n",
+        "no per-pixel linear map turns its maps",
+        "view = maps",
+    );
+}
+
+/// What each edit re-runs [references: dong §4.4]: a light only its relight, the block the
+/// quilting and what follows it (never the fit), one photograph everything downstream of it.
+#[test]
+fn edits_re_run_only_the_stages_they_change() {
+    let scene = |light: &str, block: &str| {
+        format!(
+            "sample cobbles {{\n  images = \"cobbles/cobbles_s*.png\"\n  lights = {GRID}\n}}\n\n\
+             representation rock {{\n  from = cobbles\n  method = ptm\n}}\n\n\
+             layer grown {{\n  quilt = rock\n  block = {block}\n  overlap = 6 px\n  light = light(tilt = {light} deg, slant = 60 deg)\n}}\n\n\
+             output \"grown.exr\" {{\n  from = grown\n}}\n\n\
+             output \"side.exr\" {{\n  from = grown\n  light = light(tilt = {light} deg, slant = 30 deg)\n}}\n"
+        )
+    };
+    let p = project(&scene("60", "24 px"));
+    let (run, first) = p.build_report(&["scene.tess"]);
+    run.ok();
+    let all = ran(&first);
+    for stage in ["sample cobbles", "representation rock (fit)", "layer grown (quilt)", "layer grown"] {
+        assert!(all.contains(&stage.to_string()), "{stage} missing from {all:?}");
+    }
+    let body =
+        |light: &str, block: &str| format!("scene {{\n  seed = 2\n  size = 96 x 96\n}}\n\n{}", scene(light, block));
+    p.write("scene.tess", &body("150", "24 px"));
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(ran(&stages), vec!["layer grown", "output grown.exr", "output side.exr"], "a new light");
+    p.write("scene.tess", &body("150", "20 px"));
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(
+        ran(&stages),
+        vec![
+            "layer grown",
+            "layer grown (maps)",
+            "layer grown (quilt)",
+            "layer grown (relightable)",
+            "output grown.exr",
+            "output side.exr"
+        ],
+        "a new block"
+    );
+    // One photograph changes: the capture, the fit and everything after them.
+    let mut img = decode(&p.read("cobbles/cobbles_s45_t090.png"));
+    img.data[0] = 1.0 - img.data[0];
+    p.write_bytes("cobbles/cobbles_s45_t090.png", &raster::io::encode_png(&img, 16).unwrap());
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    let again = ran(&stages);
+    for stage in
+        ["sample cobbles", "representation rock (fit)", "layer grown (quilt)", "layer grown", "output grown.exr"]
+    {
+        assert!(again.contains(&stage.to_string()), "{stage} did not re-run after an image changed: {again:?}");
+    }
 }

@@ -186,7 +186,9 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<Handle<Image>, 
         return relit(p, d, sample, quilt_node, image);
     }
     let stage = FnStage::keyed("layer.image", 2, quilted, |cx, &quilted| Ok(cx.get(quilted).image.clone()));
-    let image = p.add(format!("layer {}", d.name), stage, inputs, vec![]);
+    // A relit layer's image is its relit maps; the quilted maps are a stage of their own.
+    let label = if super::representation::is_representation(p, sample) { " (maps)" } else { "" };
+    let image = p.add(format!("layer {}{label}", d.name), stage, inputs, vec![]);
     relit(p, d, sample, quilt_node, image)
 }
 

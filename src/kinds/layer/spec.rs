@@ -138,7 +138,7 @@ pub static SPEC: KindSpec = KindSpec {
             "orientation",
             Ty::Ref(&[Value::Map]),
             Default::Absent,
-            "An orientation field: blocks come from copies of the sample rotated to the field's angle at the block centre.",
+            "An orientation field: blocks come from copies of the sample rotated to the field's angle at the block centre. A layer quilted from a representation relights each pixel in the frame of its copy (the light turned by the copy's angle).",
         ),
         prop("copies", Ty::Int(1, 64), Default::Text("8"), "Number of pre-rotated sample copies for `orientation`."),
         prop(

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use super::super::artifact::{pack, unpack};
 use super::super::Encoded;
 use crate::raster::Image;
-use crate::synth::relight::{self, Basis, Light, Method, PhotoStack, RelightError, Representation};
+use crate::synth::relight::{self, frame, Basis, Light, Method, PhotoStack, RelightError, Representation};
 
 /// A representation fitted to a capture.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,6 +26,7 @@ impl Fitted {
             chroma: self.0.chroma_image(),
             basis: self.0.basis.clone(),
             periodic: false,
+            angles: None,
         }
     }
 }
@@ -86,14 +87,16 @@ impl Encoded for Fitted {
 }
 
 /// What every relightable view reads: per-pixel maps (f32, as quilting and files hold them),
-/// the basis that relights them, the chromaticity of a colour capture, and whether the
-/// surface wraps around (its height is then integrated periodically).
+/// the basis that relights them, the chromaticity of a colour capture, whether the surface
+/// wraps around (its height is then integrated periodically), and, for a layer grown under an
+/// orientation field, each pixel's rotation (radians): its maps are in that frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Relightable {
     pub maps: Arc<Image>,
     pub chroma: Option<Image>,
     pub basis: Basis,
     pub periodic: bool,
+    pub angles: Option<Image>,
 }
 
 #[derive(serde::Serialize, serde::Deserialize)]
@@ -101,36 +104,60 @@ struct Header {
     basis: Basis,
     periodic: bool,
     chroma: bool,
+    rotated: bool,
 }
 
 impl Encoded for Relightable {
     fn encode(&self) -> Vec<u8> {
         let mut images = vec![&*self.maps];
-        if let Some(c) = &self.chroma {
-            images.push(c);
-        }
-        pack(&Header { basis: self.basis.clone(), periodic: self.periodic, chroma: self.chroma.is_some() }, &images)
+        images.extend(&self.chroma);
+        images.extend(&self.angles);
+        let header = Header {
+            basis: self.basis.clone(),
+            periodic: self.periodic,
+            chroma: self.chroma.is_some(),
+            rotated: self.angles.is_some(),
+        };
+        pack(&header, &images)
     }
 
     fn decode(bytes: &[u8]) -> Result<Self, String> {
         let (h, mut images): (Header, Vec<Image>) = unpack(bytes)?;
-        if images.len() != 1 + usize::from(h.chroma) {
+        if images.len() != 1 + usize::from(h.chroma) + usize::from(h.rotated) {
             return Err("relightable artifact: wrong image count".into());
         }
+        let angles = if h.rotated { images.pop() } else { None };
         let chroma = if h.chroma { images.pop() } else { None };
         let maps = Arc::new(images.pop().expect("counted"));
-        Ok(Relightable { maps, chroma, basis: h.basis, periodic: h.periodic })
+        Ok(Relightable { maps, chroma, basis: h.basis, periodic: h.periodic, angles })
     }
 }
 
 impl Relightable {
     /// The surface relit at `light`: luminance, or colour (chromaticity × luminance).
     pub fn relit(&self, light: &Light) -> Result<Image, RelightError> {
-        let lum = relight::relight_image(&self.maps, &self.basis, light)?;
+        let lum = self.luminance(light)?;
         Ok(match &self.chroma {
             None => lum,
             Some(c) => Image::from_fn(lum.width, lum.height, 3, |x, y, ch| c.get(x, y, ch) * lum.get(x, y, 0)),
         })
+    }
+
+    /// The relit luminance; each pixel in its own frame when the surface was grown rotated.
+    fn luminance(&self, light: &Light) -> Result<Image, RelightError> {
+        match &self.angles {
+            Some(a) => frame::relight_rotated(&self.maps, &self.basis, light, a),
+            None => relight::relight_image(&self.maps, &self.basis, light),
+        }
+    }
+
+    /// The maps in the image's frame: as stored, or, for a surface grown rotated, rewritten
+    /// per pixel (exact for 3I, Gradient and PTM; Eigen has no such rewrite).
+    pub fn framed_maps(&self) -> Result<Arc<Image>, RelightError> {
+        match &self.angles {
+            Some(a) => Ok(Arc::new(frame::to_output_frame(&self.maps, &self.basis, a)?)),
+            None => Ok(self.maps.clone()),
+        }
     }
 
     /// The chromaticity as f64 planes, if any.
@@ -144,8 +171,9 @@ impl Relightable {
     #[allow(clippy::type_complexity)]
     pub fn gradients(&self) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), RelightError> {
         let (w, h) = (self.maps.width, self.maps.height);
-        let plane = |c: usize| self.maps.plane(c).iter().map(|&v| f64::from(v)).collect::<Vec<f64>>();
         if self.basis == Basis::Gradient {
+            let maps = self.framed_maps()?;
+            let plane = |c: usize| maps.plane(c).iter().map(|&v| f64::from(v)).collect::<Vec<f64>>();
             return Ok((plane(0), plane(1), plane(2)));
         }
         let tilts: Vec<f64> = (0..12).map(|i| f64::from(i) * 30.0).collect();
@@ -155,7 +183,7 @@ impl Relightable {
         };
         let mut images = Vec::with_capacity(lights.len());
         for l in &lights {
-            let lit = relight::relight_image(&self.maps, &self.basis, l)?;
+            let lit = self.luminance(l)?;
             images.push(lit.data.iter().map(|&v| f64::from(v)).collect());
         }
         let stack = PhotoStack::new(w, h, images, lights)?;

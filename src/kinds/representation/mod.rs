@@ -87,7 +87,7 @@ impl super::Kind for Representation {
         p.set_part(d, "capture", p.result::<Capture>(capture_name));
         let mut inputs = Inputs::new();
         let f = inputs.add(fitted);
-        let stage = FnStage::keyed("representation.relightable", 1, f, |cx, &f| Ok(cx.get(f).relightable()));
+        let stage = FnStage::keyed("representation.relightable", 2, f, |cx, &f| Ok(cx.get(f).relightable()));
         let surface = p.add(format!("representation {} (relightable)", d.name), stage, inputs, vec![]);
         p.set_part(d, "relightable", surface);
         let mut inputs = Inputs::new();
@@ -146,6 +146,16 @@ fn relight_error(e: RelightError, fallback: &'static str) -> StageError {
         Some(h) => err.with_help(h),
         None => err,
     }
+}
+
+/// [`relight_error`], where a surface grown under an orientation field cannot rewrite its maps.
+fn rotation_error(e: RelightError, fallback: &'static str) -> StageError {
+    if e == RelightError::NoRotation {
+        return StageError::new(format!("this layer was grown under an orientation field: {e}"))
+            .at_prop(fallback)
+            .with_help("write the relit, `normal`, `height` or `albedo` views, which relight each pixel in its own frame, or fit `method = ptm` or `gradient`");
+    }
+    relight_error(e, fallback)
 }
 
 fn fit(cx: &RunCx, f: &Fitting) -> Result<Fitted, StageError> {
@@ -291,7 +301,7 @@ fn draw(cx: &RunCx, v: &Viewing) -> Result<Bytes, StageError> {
             if v.format != OutputFormat::Exr {
                 return Err(StageError::new("the `maps` view holds signed values: write it as `.exr`").at_prop("view"));
             }
-            (*s.maps).clone()
+            (*s.framed_maps().map_err(|e| rotation_error(e, "view"))?).clone()
         }
     };
     super::output::encode_image(&img, v.format)
@@ -324,7 +334,7 @@ pub fn plan_relit_layer(
         block: d.props.pixels("block"),
         overlap: d.props.opt_pixels("overlap").unwrap_or(crate::synth::quilt::default_overlap(d.props.pixels("block"))),
     };
-    let stage = FnStage::keyed("layer.relightable", 1, growing, grow);
+    let stage = FnStage::keyed("layer.relightable", 2, growing, grow);
     let surface = p.add(format!("layer {} (relightable)", d.name), stage, inputs, vec![]);
     p.set_part(d, "relightable", surface);
     let light = light_in(&d.props);
@@ -371,6 +381,7 @@ fn grow(cx: &RunCx, g: &Growing) -> Result<Relightable, StageError> {
         chroma,
         basis: fitted.0.basis.clone(),
         periodic: g.tileable,
+        angles: quilt.rotated().then(|| quilt.angle_map()),
     })
 }
 

@@ -132,3 +132,22 @@ pub struct QuiltResult {
     pub searches: usize,
     pub tileable: bool,
 }
+
+impl QuiltResult {
+    /// Whether any block came from a rotated copy (an orientation field was used).
+    pub fn rotated(&self) -> bool {
+        self.sources.iter().any(|s| s.angle != 0.0)
+    }
+
+    /// For every output pixel, the rotation (radians) of the copy it came from; 0 where empty.
+    pub fn angle_map(&self) -> Image {
+        let (w, h) = (self.index.width, self.index.height);
+        let mut out = Image::new(w, h, 1);
+        for (o, &s) in out.data.iter_mut().zip(&self.index.source) {
+            if s != IndexMap::EMPTY {
+                *o = self.sources[s as usize].angle;
+            }
+        }
+        out
+    }
+}

@@ -40,6 +40,11 @@ pub enum RelightError {
     Channels { got: usize, expected: usize },
     #[error("size mismatch: {what} is {got:?}, expected {expected:?}")]
     Size { what: &'static str, got: [usize; 2], expected: [usize; 2] },
+    #[error(
+        "Eigen's coefficients are interpolated on its light grid, so no per-pixel linear map turns its maps \
+         into another frame"
+    )]
+    NoRotation,
     #[error("the PTM file is malformed: {0}")]
     PtmFile(String),
 }

@@ -11,7 +11,8 @@
 //!
 //! Also here: height from gradients (Frankot–Chellappa and a least-squares Neumann
 //! integration, `height`), the η evaluation in reconstruction and leave-one-out modes
-//! (`evaluate`), renderer exports (`export`) and PTM 1.2 files (`ptm_file`).
+//! (`evaluate`), renderer exports (`export`), PTM 1.2 files (`ptm_file`), and surfaces grown
+//! from rotated copies under an orientation field, relit in each pixel's frame (`frame`).
 //!
 //! **Frame.** Array terms throughout: x = column, y = row, z toward the camera; `p = ∂s/∂x`,
 //! `q = ∂s/∂y`; a light's tilt is measured from +x toward +y (`light`). Shown with row 0 on
@@ -31,6 +32,7 @@ pub mod evaluate;
 pub mod export;
 #[cfg(any(test, feature = "fixtures"))]
 pub mod fixtures;
+pub mod frame;
 pub mod height;
 mod light;
 pub mod ptm_file;

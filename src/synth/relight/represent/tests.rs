@@ -271,6 +271,26 @@ fn relighting_commutes_with_quilting() {
     }
 }
 
+/// Dong `item 22`: on an exactly Lambertian surface (scenario A) 3I and Gradient are the same
+/// surface, so one index map driving both gives the same relit images at (60°, 60°) and
+/// (120°, 60°).
+#[test]
+fn three_i_and_gradient_agree_on_lambertian_data_through_one_index_map() {
+    let st = scenario(Scenario::A).stack;
+    let three = extract(&st, Method::ThreeI).unwrap();
+    let grad = extract(&st, Method::Gradient).unwrap();
+    let mut params = QuiltParams::new(56, 48, 12, 3);
+    params.metric = Metric::Sad;
+    let q = quilt(&three.to_image(), &params).unwrap();
+    let grad_maps = gather(&q, &grad.to_image()).unwrap();
+    for light in [Light::new(60.0, 60.0), Light::new(120.0, 60.0)] {
+        let a = relight_image(&q.image, &three.basis, &light).unwrap();
+        let b = relight_image(&grad_maps, &grad.basis, &light).unwrap();
+        let worst = a.data.iter().zip(&b.data).map(|(x, y)| (x - y).abs()).fold(0f32, f32::max);
+        assert!(worst < 1e-6, "3I vs Gradient at {light:?}: {worst}");
+    }
+}
+
 /// The same relit image whatever the number of threads.
 #[test]
 fn relighting_does_not_depend_on_the_thread_count() {
