@@ -1,11 +1,14 @@
 //! Relighting at 1024²: extraction from 36 images (targets: PTM and Gradient under 0.5 s each,
 //! Eigen6 under 1.5 s), Frankot–Chellappa integration (under 100 ms), and relighting one
 //! megapixel at one light (under 10 ms), next to a copy of the maps' bytes, which is the
-//! memory-bandwidth floor for touching them once.
+//! memory-bandwidth floor for touching them once; and relighting a surface grown under an
+//! orientation field, each pixel in its own frame.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use rayon::prelude::*;
+use tessera::raster::Image;
 use tessera::synth::relight::fixtures::{lights36, render, Scenario};
+use tessera::synth::relight::frame::relight_rotated;
 use tessera::synth::relight::height::frankot_chellappa;
 use tessera::synth::relight::{extract, relight_image, Light, Method};
 
@@ -44,6 +47,12 @@ fn bench(c: &mut Criterion) {
         });
         group.bench_function(format!("relight_{}_f64_1mpx", method.name()), |b| {
             b.iter(|| rep.relight(black_box(&light)).unwrap())
+        });
+        // Grown under an orientation field: 32² blocks from 12 rotated copies, each pixel relit
+        // in its copy's frame.
+        let angles = Image::from_fn(SIZE, SIZE, 1, |x, y, _| ((x / 32 * 7 + y / 32 * 5) % 12) as f32 * 0.5236);
+        group.bench_function(format!("relight_{}_rotated_1mpx", method.name()), |b| {
+            b.iter(|| relight_rotated(black_box(&maps), &rep.basis, &light, &angles).unwrap())
         });
     }
     group.finish();
