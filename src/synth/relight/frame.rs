@@ -42,15 +42,19 @@ fn check(maps: &Image, basis: &Basis, angles: &Image) -> Result<(), RelightError
 fn distinct(angles: &Image) -> (Vec<f32>, Vec<u16>) {
     let mut seen: Vec<f32> = Vec::new();
     let mut which = Vec::with_capacity(angles.data.len());
+    // Blocks make runs of one angle: try the previous pixel's first.
+    let mut last = usize::MAX;
     for &a in &angles.data {
-        let i = match seen.iter().position(|s| s.to_bits() == a.to_bits()) {
-            Some(i) => i,
-            None => {
-                seen.push(a);
-                seen.len() - 1
-            }
-        };
-        which.push(u16::try_from(i).unwrap_or(u16::MAX));
+        if last == usize::MAX || seen[last].to_bits() != a.to_bits() {
+            last = match seen.iter().position(|s| s.to_bits() == a.to_bits()) {
+                Some(i) => i,
+                None => {
+                    seen.push(a);
+                    seen.len() - 1
+                }
+            };
+        }
+        which.push(u16::try_from(last).unwrap_or(u16::MAX));
     }
     (seen, which)
 }
@@ -76,24 +80,42 @@ pub fn relight_rotated(maps: &Image, basis: &Basis, light: &Light, angles: &Imag
     if w == 0 || m == 0 {
         return Ok(out);
     }
-    out.data.par_chunks_mut(w).enumerate().with_min_len(8).for_each(|(y, row)| {
-        for (x, o) in row.iter_mut().enumerate() {
-            let i = y * w + x;
-            *o = match &kernels[usize::from(which[i])] {
-                Kernel::Linear(coef) => {
-                    // Channel order as `relight_image`, so angle 0 reproduces it exactly.
-                    let mut acc = 0.0f64;
-                    for (plane, &c) in planes.iter().zip(coef) {
-                        acc += c * f64::from(plane[i]);
+    out.data.par_chunks_mut(w).enumerate().with_min_len(8).for_each_init(
+        || vec![0.0f64; w],
+        |acc, (y, row)| {
+            let s = y * w;
+            let mut x0 = 0;
+            // Runs of one rotation share a kernel; within a run the sums go plane by plane as
+            // in `relight_image`, so angle 0 reproduces it exactly.
+            while x0 < w {
+                let k = which[s + x0];
+                let x1 = (x0..w).find(|&x| which[s + x] != k).unwrap_or(w);
+                match &kernels[usize::from(k)] {
+                    Kernel::Linear(coef) => {
+                        let acc = &mut acc[x0..x1];
+                        acc.fill(0.0);
+                        for (plane, &c) in planes.iter().zip(coef) {
+                            for (a, &v) in acc.iter_mut().zip(&plane[s + x0..s + x1]) {
+                                *a += c * f64::from(v);
+                            }
+                        }
+                        for (o, &a) in row[x0..x1].iter_mut().zip(acc.iter()) {
+                            *o = a as f32;
+                        }
                     }
-                    acc as f32
+                    Kernel::Lambert(l) => {
+                        for x in x0..x1 {
+                            let i = s + x;
+                            let v =
+                                lambert(f64::from(planes[0][i]), f64::from(planes[1][i]), f64::from(planes[2][i]), *l);
+                            row[x] = v as f32;
+                        }
+                    }
                 }
-                Kernel::Lambert(l) => {
-                    lambert(f64::from(planes[0][i]), f64::from(planes[1][i]), f64::from(planes[2][i]), *l) as f32
-                }
-            };
-        }
-    });
+                x0 = x1;
+            }
+        },
+    );
     Ok(out)
 }
 
