@@ -1,11 +1,16 @@
 //! The structure samples in `samples/standins/` are the synthetic stand-ins of [references: frasson §3.6],
-//! generated from seeded procedures. This test regenerates them and checks that the
-//! committed files match, so samples, generators and ground truth never drift apart.
+//! generated from seeded procedures, and the photometric captures in
+//! `samples/capture/scenario_a` … `scenario_d` are the synthetic relighting scenarios A–D
+//! rendered by `synth::relight::fixtures` (tessera's stand-ins for the PhoTex captures,
+//! [references: dong §3.3]). This test regenerates them and checks that the committed files
+//! match, so samples, generators and ground truth never drift apart.
 //! Set `TESSERA_REGENERATE=1` to rewrite the files instead.
 
 use std::path::PathBuf;
 
 use tessera::raster::{self, Image};
+use tessera::synth::relight::fixtures::{self as photometric, Scenario};
+use tessera::synth::relight::Light;
 use tessera::synth::structure::fixtures::standins::{self as s, StandIn};
 use tessera::synth::structure::{format, render};
 
@@ -59,18 +64,82 @@ fn files() -> Vec<(String, Vec<u8>)> {
     out
 }
 
-#[test]
-fn committed_standins_match_their_generators() {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("samples/standins");
+/// Writes `files` into `dir` (with `TESSERA_REGENERATE` set) or checks that the committed
+/// files there are byte for byte the generated ones.
+fn sync(dir: &std::path::Path, files: Vec<(String, Vec<u8>)>) {
     let regenerate = std::env::var_os("TESSERA_REGENERATE").is_some();
-    for (name, bytes) in files() {
+    for (name, bytes) in files {
         let path = dir.join(&name);
         if regenerate {
-            std::fs::create_dir_all(&dir).expect("mkdir");
+            std::fs::create_dir_all(path.parent().expect("parent")).expect("mkdir");
             std::fs::write(&path, &bytes).expect("write");
             continue;
         }
         let committed = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert!(committed == bytes, "{name} differs from its generator; run with TESSERA_REGENERATE=1");
+    }
+}
+
+#[test]
+fn committed_standins_match_their_generators() {
+    sync(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("samples/standins"), files());
+}
+
+/// A plane of values in [0, 1] as a 16-bit greyscale PNG: each value is rounded to its code
+/// `round(v · 65535)` here, in f64, and handed to the encoder as `code / 65535`, which the
+/// encoder rounds back to the same code.
+fn png16(n: usize, values: impl Iterator<Item = f64>) -> Vec<u8> {
+    let data = values.map(|v| ((v.clamp(0.0, 1.0) * 65535.0).round() / 65535.0) as f32).collect();
+    raster::io::encode_png(&Image { width: n, height: n, channels: 1, data }, 16).expect("png")
+}
+
+/// The light-position file's line for `light`: its direction in the RTI frame (y up the
+/// image), with enough decimals that loading gives the grid's tilt and slant back to well
+/// within the 1e-9° to which lights are matched (six decimals would move them by ~1e-4°).
+fn lp_line(file: &str, light: &Light) -> String {
+    let d = light.rti_direction();
+    format!("{file} {:.15} {:.15} {:.15}", d.x, d.y, d.z)
+}
+
+/// Scenario `s`'s capture as files under `scenario_x/`: the 36 images (16-bit linear PNG,
+/// every image divided by the capture's largest value, so that value is full scale), the
+/// light-position file, and the truth: the height stretched to [0, 1] and the albedo, as
+/// 16-bit PNGs.
+fn capture_files(s: Scenario) -> Vec<(String, Vec<u8>)> {
+    let c = photometric::scenario(s);
+    let name = format!("scenario_{}", format!("{s:?}").to_lowercase());
+    let top = c.stack.images.iter().flatten().cloned().fold(0.0, f64::max);
+    let mut out = Vec::new();
+    let mut lp = format!("{}\n", c.stack.len());
+    for (img, light) in c.stack.images.iter().zip(&c.stack.lights) {
+        let file = format!("{name}_s{:02}_t{:03}.png", light.slant_deg.round(), light.tilt_deg.round());
+        lp.push_str(&lp_line(&file, light));
+        lp.push('\n');
+        out.push((format!("{name}/{file}"), png16(c.n, img.iter().map(|v| v / top))));
+    }
+    out.push((format!("{name}/{name}.lp"), lp.into_bytes()));
+    let (lo, hi) = c.height.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    out.push((format!("{name}/truth_height.png"), png16(c.n, c.height.iter().map(|v| (v - lo) / (hi - lo)))));
+    out.push((format!("{name}/truth_albedo.png"), png16(c.n, c.albedo.iter().copied())));
+    out
+}
+
+#[test]
+fn committed_captures_match_their_generators() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("samples/capture");
+    for s in Scenario::ALL {
+        let files = capture_files(s);
+        // The light-position file names the grid's lights, in the frame the loader reads.
+        let (_, lp) = files.iter().find(|(n, _)| n.ends_with(".lp")).expect("a light-position file");
+        let lp = String::from_utf8(lp.clone()).expect("utf-8");
+        let mut lines = lp.lines();
+        assert_eq!(lines.next(), Some("36"));
+        for (line, want) in lines.zip(photometric::lights36()) {
+            let xyz: Vec<f64> = line.split_whitespace().skip(1).map(|f| f.parse().expect("a number")).collect();
+            let len = xyz.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let got = Light::from_rti_direction(xyz[0] / len, xyz[1] / len, xyz[2] / len);
+            assert!(got.same(&want), "{line}: {got:?} is not {want:?}");
+        }
+        sync(&dir, files);
     }
 }

@@ -161,7 +161,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Capture>, Diagnostic> {
         transfer: TRANSFERS.get(props.enumeration("transfer")),
         prep,
     };
-    let stage = FnStage::keyed("sample.capture", 1, loading, load);
+    let stage = FnStage::keyed("sample.capture", 2, loading, load);
     Ok(p.add(format!("sample {}", d.name), stage, Inputs::new(), files))
 }
 
@@ -276,8 +276,11 @@ fn load(cx: &RunCx, l: &Loading) -> Result<Capture, StageError> {
         if let Some(bits) = l.bit_depth {
             if !exr && file_depth > 8 {
                 // A 12-bit camera in a 16-bit container: full scale is 2^bits − 1, not 65535.
-                let scale = ((1u64 << file_depth) - 1) as f32 / ((1u64 << bits) - 1) as f32;
-                img.data.iter_mut().for_each(|v| *v *= scale);
+                // The decoder gave `code / 65535`; the code comes back exactly in f64 and is
+                // divided once, so a value is `code / 4095` correctly rounded (rescaling the
+                // f32 instead rounds twice and is one ulp off for most codes).
+                let (stored, full) = (((1u64 << file_depth) - 1) as f64, ((1u64 << bits) - 1) as f64);
+                img.data.iter_mut().for_each(|v| *v = ((f64::from(*v) * stored).round() / full) as f32);
             }
         }
         let srgb = match l.transfer {

@@ -136,7 +136,7 @@ pub fn evaluate(stack: &PhotoStack, methods: &[Method], predict: bool) -> Result
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synth::relight::fixtures::{scenario, Scenario};
+    use crate::synth::relight::fixtures::{meets_prototype, scenario, Scenario, PROTOTYPE};
 
     const ALL: [Method; 5] = [Method::ThreeI, Method::Gradient, Method::Ptm, Method::Eigen(3), Method::Eigen(6)];
 
@@ -158,33 +158,14 @@ mod tests {
     }
 
     /// (scenario, recon η, pred η, recon Frobenius) of the reference prototype, methods in the
-    /// order 3I, Gradient, PTM, Eigen3, Eigen6 [references: dong §4.5.1]
+    /// order 3I, Gradient, PTM, Eigen3, Eigen6 (`fixtures::PROTOTYPE`) [references: dong §4.5.1]
     #[allow(clippy::type_complexity)]
     fn table() -> Vec<(Scenario, [f64; 5], [f64; 5], Option<[f64; 5]>)> {
-        vec![
-            (Scenario::A, [0.0, 0.0, 0.0586, 0.0, 0.0], [0.0, 0.0, 0.0698, 0.1002, 0.1002], None),
-            (
-                Scenario::B,
-                [0.5358, 0.3823, 0.2724, 0.2727, 0.1091],
-                [0.5666, 0.4173, 0.3326, 0.3230, 0.2171],
-                Some([23.41, 15.59, 11.49, 11.21, 4.449]),
-            ),
-            (Scenario::C, [0.4058, 0.2909, 0.2100, 0.2092, 0.0854], [0.4294, 0.3174, 0.2553, 0.2581, 0.1829], None),
-            (
-                Scenario::D,
-                [0.1665, 0.1569, 0.1116, 0.1151, 0.0607],
-                [0.1745, 0.1718, 0.1360, 0.1822, 0.1548],
-                Some([8.239, 6.932, 4.460, 5.343, 2.577]),
-            ),
-        ]
+        PROTOTYPE.iter().map(|p| (p.scenario, p.recon, p.pred, p.frobenius)).collect()
     }
 
     fn close(got: f64, want: f64) -> bool {
-        if want == 0.0 {
-            got.abs() <= 1e-6
-        } else {
-            ((got - want) / want).abs() <= 0.02
-        }
+        meets_prototype(got, want)
     }
 
     /// Dong `item 12` (and the numeric parts of `items 7 and 10`): the prototype table in both

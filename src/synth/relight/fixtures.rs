@@ -9,6 +9,7 @@ use glam::DVec3;
 
 use crate::synth::relight::light::grid;
 use crate::synth::relight::light::Light;
+use crate::synth::relight::represent::Method;
 use crate::synth::relight::stack::PhotoStack;
 
 /// The four scenarios: amplitude `a`, specular weight `k_s`, exponent `e`.
@@ -119,4 +120,57 @@ pub fn quantise(stack: &PhotoStack, bits: u32) -> PhotoStack {
         }
     }
     out
+}
+
+/// Methods in the order of the prototype's table: 3I, Gradient, PTM, Eigen3, Eigen6.
+pub const PROTOTYPE_METHODS: [Method; 5] =
+    [Method::ThreeI, Method::Gradient, Method::Ptm, Method::Eigen(3), Method::Eigen(6)];
+
+/// One row of the reference prototype's table: η in reconstruction and leave-one-out
+/// prediction, and the reconstruction Frobenius error where it was given, methods in the order
+/// of [`PROTOTYPE_METHODS`]. Its data are the f64 renders of [`scenario`] (no quantisation).
+#[derive(Clone, Copy, Debug)]
+pub struct Prototype {
+    pub scenario: Scenario,
+    pub recon: [f64; 5],
+    pub pred: [f64; 5],
+    pub frobenius: Option<[f64; 5]>,
+}
+
+/// The reference prototype's values (an independent quick implementation, not thesis
+/// numbers), to be met within ±2 % relative, or 1e-6 absolute where 0 [references: dong §4.5.1]
+pub const PROTOTYPE: [Prototype; 4] = [
+    Prototype {
+        scenario: Scenario::A,
+        recon: [0.0, 0.0, 0.0586, 0.0, 0.0],
+        pred: [0.0, 0.0, 0.0698, 0.1002, 0.1002],
+        frobenius: None,
+    },
+    Prototype {
+        scenario: Scenario::B,
+        recon: [0.5358, 0.3823, 0.2724, 0.2727, 0.1091],
+        pred: [0.5666, 0.4173, 0.3326, 0.3230, 0.2171],
+        frobenius: Some([23.41, 15.59, 11.49, 11.21, 4.449]),
+    },
+    Prototype {
+        scenario: Scenario::C,
+        recon: [0.4058, 0.2909, 0.2100, 0.2092, 0.0854],
+        pred: [0.4294, 0.3174, 0.2553, 0.2581, 0.1829],
+        frobenius: None,
+    },
+    Prototype {
+        scenario: Scenario::D,
+        recon: [0.1665, 0.1569, 0.1116, 0.1151, 0.0607],
+        pred: [0.1745, 0.1718, 0.1360, 0.1822, 0.1548],
+        frobenius: Some([8.239, 6.932, 4.460, 5.343, 2.577]),
+    },
+];
+
+/// Whether `got` meets the prototype's `want`: ±2 % relative, or ≤ 1e-6 where `want` is 0.
+pub fn meets_prototype(got: f64, want: f64) -> bool {
+    if want == 0.0 {
+        got.abs() <= 1e-6
+    } else {
+        ((got - want) / want).abs() <= 0.02
+    }
 }
