@@ -50,7 +50,9 @@ fn bench(c: &mut Criterion) {
         });
         // Grown under an orientation field: 32² blocks from 12 rotated copies, each pixel relit
         // in its copy's frame.
-        let angles = Image::from_fn(SIZE, SIZE, 1, |x, y, _| ((x / 32 * 7 + y / 32 * 5) % 12) as f32 * 0.5236);
+        let angles = Image::from_fn(SIZE, SIZE, 1, |x, y, _| {
+            ((x / 32 * 7 + y / 32 * 5) % 12) as f32 * std::f32::consts::FRAC_PI_6
+        });
         group.bench_function(format!("relight_{}_rotated_1mpx", method.name()), |b| {
             b.iter(|| relight_rotated(black_box(&maps), &rep.basis, &light, &angles).unwrap())
         });

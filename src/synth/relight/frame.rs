@@ -104,11 +104,10 @@ pub fn relight_rotated(maps: &Image, basis: &Basis, light: &Light, angles: &Imag
                         }
                     }
                     Kernel::Lambert(l) => {
-                        for x in x0..x1 {
+                        for (x, o) in (x0..x1).zip(row[x0..x1].iter_mut()) {
                             let i = s + x;
-                            let v =
-                                lambert(f64::from(planes[0][i]), f64::from(planes[1][i]), f64::from(planes[2][i]), *l);
-                            row[x] = v as f32;
+                            *o = lambert(f64::from(planes[0][i]), f64::from(planes[1][i]), f64::from(planes[2][i]), *l)
+                                as f32;
                         }
                     }
                 }

@@ -6,6 +6,11 @@
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
+/// Angles closer than this (degrees) name one light, one slant row or one tilt node of a grid.
+/// Light-position files give directions to six decimals, which moves a grid light by about
+/// 1e-4°; no capture puts two lights this close on purpose.
+pub const SAME_DEG: f64 = 1e-2;
+
 /// A distant light: tilt and slant in degrees. The tilt is kept in `[0, 360)`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Light {
@@ -53,11 +58,11 @@ impl Light {
         DVec3::new(v.x, -v.y, v.z)
     }
 
-    /// Whether two lights are the same direction to within `1e-9` degrees.
+    /// Whether two lights are the same direction: tilt and slant within [`SAME_DEG`].
     pub fn same(&self, other: &Light) -> bool {
         let dt = (self.tilt_deg - other.tilt_deg).rem_euclid(360.0);
         let dt = dt.min(360.0 - dt);
-        (self.slant_deg - other.slant_deg).abs() < 1e-9 && (dt < 1e-9 || self.slant_deg.abs() < 1e-9)
+        (self.slant_deg - other.slant_deg).abs() < SAME_DEG && (dt < SAME_DEG || self.slant_deg.abs() < SAME_DEG)
     }
 }
 

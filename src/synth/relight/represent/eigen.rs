@@ -13,11 +13,8 @@ use rayon::prelude::*;
 
 use super::types::{planes, project, Basis, EigenBasis, Method, Representation};
 use crate::synth::relight::error::RelightError;
-use crate::synth::relight::light::Light;
+use crate::synth::relight::light::{Light, SAME_DEG};
 use crate::synth::relight::stack::PhotoStack;
-
-/// Slants closer than this (degrees) are one grid row; tilts closer are one node.
-const SAME_DEG: f64 = 1e-9;
 
 impl EigenBasis {
     fn column(&self, i: usize) -> impl Iterator<Item = f64> + '_ {
