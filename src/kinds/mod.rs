@@ -215,6 +215,11 @@ impl Planner<'_> {
         self.parts.insert((d.name.clone(), part), h.erase());
     }
 
+    /// Whether the declaration `name` recorded a part `part` (of any type).
+    pub fn has_part(&self, name: &str, part: &'static str) -> bool {
+        self.parts.contains_key(&(name.to_string(), part))
+    }
+
     /// A named part of a multi-stage declaration planned earlier.
     pub fn part<T: Any>(&self, name: &str, part: &'static str) -> Option<Handle<T>> {
         self.parts.get(&(name.to_string(), part)).map(|h| typed(*h, name))

@@ -112,8 +112,11 @@ impl Project {
                 rows.push(row);
                 continue;
             }
-            let actual = raster::io::decode(&bytes.0);
-            let expected = raster::io::decode(&golden_bytes);
+            let decode = |b: &[u8]| match o.format {
+                OutputFormat::Ptm(_) => ptm_planes(b),
+                _ => raster::io::decode(b).map_err(|e| e.to_string()),
+            };
+            let (actual, expected) = (decode(&bytes.0), decode(&golden_bytes));
             let (actual, expected) = match (actual, expected) {
                 (Ok(a), Ok(e)) => (a, e),
                 (Err(e), _) => {
@@ -165,6 +168,16 @@ fn diff_picture(actual: &raster::Image, expected: &raster::Image, tol: &Toleranc
     } else {
         golden::diff_image(actual, expected, tol)
     }
+}
+
+/// A PTM file as an image of its planes (coefficients, then colour, in intensity units), so
+/// that it compares like any float image.
+fn ptm_planes(bytes: &[u8]) -> Result<raster::Image, String> {
+    let ptm = crate::synth::relight::ptm_file::read_ptm(bytes).map_err(|e| e.to_string())?;
+    let m = ptm.width * ptm.height;
+    let data: Vec<f32> = ptm.coefficients.iter().chain(ptm.colour.iter().flatten()).map(|&v| v as f32).collect();
+    let channels = data.len().checked_div(m).unwrap_or(0);
+    Ok(raster::Image { width: ptm.width, height: ptm.height, channels, data })
 }
 
 /// Whole steps of a `bits`-bit code within `fraction` of the full range, rounded down (with

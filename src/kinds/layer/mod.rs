@@ -94,7 +94,8 @@ impl super::Kind for Layer {
         let view = out.view;
         if let Some(surface) = p.part::<super::representation::Relightable>(out.from, "relightable") {
             let own = matches!(view, View::Albedo | View::Normal | View::Height | View::Maps);
-            if own || (view == View::Auto && out.decl.props.span("light").is_some()) {
+            let file = matches!(out.format, super::OutputFormat::Ptm(_));
+            if own || file || (view == View::Auto && out.decl.props.span("light").is_some()) {
                 return super::representation::plan_view(p, out, surface).map(Some);
             }
         }

@@ -7,6 +7,7 @@ use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Ty, Unit,
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::{self, Image};
+use crate::synth::relight::ptm_file::PtmFormat;
 use crate::synth::surface::Plane;
 
 pub static SPEC: KindSpec = KindSpec {
@@ -51,7 +52,7 @@ pub static SPEC: KindSpec = KindSpec {
             name: "format",
             ty: Ty::Enum(FORMATS.names),
             default: Default::Text("auto"),
-            doc: "File format; `auto` picks from the extension (`.png` → 8-bit PNG, `.exr` → 32-bit float EXR).",
+            doc: "File format; `auto` picks from the extension (`.png` → 8-bit PNG, `.exr` → 32-bit float EXR, `.ptm` → `ptm_lrgb`). `.ptm` files are PTM 1.2 as RTI viewers read them, of a representation fitted with `method = ptm` or a layer quilted from one: `ptm_lrgb` (six luminance coefficients and an RGB colour per pixel) or `ptm_rgb` (six coefficients per colour channel).",
         },
         PropSpec {
             name: "tolerance",
@@ -127,10 +128,13 @@ enum Format {
     Png8,
     Png16,
     Exr,
+    PtmLrgb,
+    PtmRgb,
 }
 
 crate::choices!(FORMATS: Format {
-    "auto" => Format::Auto, "png8" => Format::Png8, "png16" => Format::Png16, "exr" => Format::Exr
+    "auto" => Format::Auto, "png8" => Format::Png8, "png16" => Format::Png16, "exr" => Format::Exr,
+    "ptm_lrgb" => Format::PtmLrgb, "ptm_rgb" => Format::PtmRgb
 });
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -140,6 +144,8 @@ pub enum OutputFormat {
     Exr,
     Json,
     Svg,
+    /// A PTM 1.2 file (relightable surfaces fitted by PTM).
+    Ptm(PtmFormat),
 }
 
 impl OutputFormat {
@@ -208,6 +214,8 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
         (Format::Auto | Format::Exr, "exr") => OutputFormat::Exr,
         (Format::Auto, "json") => OutputFormat::Json,
         (Format::Auto, "svg") => OutputFormat::Svg,
+        (Format::Auto | Format::PtmLrgb, "ptm") => OutputFormat::Ptm(PtmFormat::Lrgb),
+        (Format::PtmRgb, "ptm") => OutputFormat::Ptm(PtmFormat::Rgb),
         (f, e) => {
             let span = d.props.span("format").unwrap_or(d.name_span);
             return Err(Diagnostic::error(if f == Format::Auto {
@@ -217,7 +225,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
             })
             .with_code("tessera::output_format")
             .with_label(span, "here")
-            .with_help("outputs are `.png` (8- or 16-bit), `.exr`, `.json` or `.svg` files"));
+            .with_help("outputs are `.png` (8- or 16-bit), `.exr`, `.json`, `.svg` or `.ptm` files"));
         }
     };
     let name = crate::graph::files::normal_relative(&d.name).map_err(|problem| {
@@ -229,6 +237,14 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
     let name = name.to_string_lossy().into_owned();
     let from = d.props.reference("from").expect("required");
     let view = VIEWS.get(d.props.enumeration("view"));
+    if matches!(format, OutputFormat::Ptm(_)) && !p.has_part(from, "relightable") {
+        return Err(Diagnostic::error(format!(
+            "`{from}` is not relightable: a `.ptm` file holds a surface fitted by PTM"
+        ))
+        .with_code("tessera::output_format")
+        .with_label(d.props.span("from").unwrap_or(d.name_span), "not a representation")
+        .with_help("write a `representation` with `method = ptm`, or a layer quilted from one"));
+    }
     let request = super::OutputRequest { decl: d, from, format, view, ext: &ext };
     if let Some(v) = super::kind(p.decl(from).kind).plan_output(p, &request)? {
         p.outputs.push(planned(d, &name, v.node.node(), format, v.exact)?);
@@ -288,7 +304,9 @@ pub(crate) fn encode_image(img: &Image, format: OutputFormat) -> Result<Bytes, S
         OutputFormat::Png8 => raster::io::encode_png(img, 8),
         OutputFormat::Png16 => raster::io::encode_png(img, 16),
         OutputFormat::Exr => raster::io::encode_exr(img),
-        OutputFormat::Json | OutputFormat::Svg => unreachable!("text formats are checked when planned"),
+        OutputFormat::Json | OutputFormat::Svg | OutputFormat::Ptm(_) => {
+            return Err(StageError::new("this output is not an image file: name it `.png` or `.exr`"))
+        }
     }
     .map(Bytes)
     .map_err(|e| StageError::new(format!("cannot encode the output: {e}")))

@@ -18,7 +18,8 @@ use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Ty, Value
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::Image;
 use crate::synth::quilt::QuiltResult;
-use crate::synth::relight::{self, export, height, Light, Method, PhotoStack, RelightError};
+use crate::synth::relight::ptm_file::{self, PtmFormat};
+use crate::synth::relight::{self, export, height, Basis, Light, Method, PhotoStack, RelightError};
 
 /// `method`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -243,6 +244,9 @@ pub fn plan_view(
     if out.format.is_text() {
         return Err(view_error(out, &format!("a relightable surface is written as an image, not as `.{}`", out.ext)));
     }
+    if let OutputFormat::Ptm(format) = out.format {
+        return plan_ptm(p, out, surface, format);
+    }
     let look = match out.view {
         View::Auto => Look::Relit,
         View::Albedo => Look::Albedo,
@@ -263,6 +267,78 @@ pub fn plan_view(
     let stage = FnStage::keyed("output.relightable", 1, viewing, draw);
     let node = p.add(format!("output {}", out.decl.name), stage, inputs, vec![]);
     Ok(super::ViewNode { node, exact: false })
+}
+
+/// The method of the representation behind `name`: a representation, or a layer quilted from
+/// one (however many layers deep).
+fn method_behind(p: &Planner, name: &str) -> Option<MethodChoice> {
+    let mut name = name;
+    for _ in 0..=p.scene.decls.len() {
+        let d = p.decl(name);
+        if p.has_part(name, "fit") {
+            return Some(METHODS.get(d.props.enumeration("method")));
+        }
+        name = d.props.reference("quilt")?;
+    }
+    None
+}
+
+/// A PTM 1.2 file of a surface fitted by PTM.
+fn plan_ptm(
+    p: &mut Planner,
+    out: &super::OutputRequest,
+    surface: Handle<Relightable>,
+    format: PtmFormat,
+) -> Result<super::ViewNode, Diagnostic> {
+    if out.view != View::Auto {
+        return Err(view_error(out, "a `.ptm` file holds the relightable surface itself: remove `view`"));
+    }
+    for prop in ["light", "normals"] {
+        if let Some(span) = out.decl.props.span(prop) {
+            return Err(Diagnostic::error(format!(
+                "`{prop}` does not apply to a `.ptm` file: the viewer chooses the light"
+            ))
+            .with_code("tessera::output_view")
+            .with_label(span, "remove this"));
+        }
+    }
+    if let Some(m) = method_behind(p, out.from).filter(|&m| m != MethodChoice::Ptm) {
+        return Err(Diagnostic::error(format!(
+            "a `.ptm` file holds PTM coefficients, but `{}` is fitted with `method = {}`",
+            out.from,
+            METHODS.name(m)
+        ))
+        .with_code("tessera::output_format")
+        .with_label(out.decl.props.span("from").unwrap_or(out.decl.name_span), "not a PTM surface")
+        .with_help("fit the representation with `method = ptm`, or write this surface as `.exr` / `.png`"));
+    }
+    let mut inputs = Inputs::new();
+    let writing = PtmWriting { surface: inputs.add(surface), format };
+    let stage = FnStage::keyed("output.ptm", 1, writing, write_ptm);
+    let node = p.add(format!("output {}", out.decl.name), stage, inputs, vec![]);
+    Ok(super::ViewNode { node, exact: false })
+}
+
+#[derive(serde::Serialize)]
+struct PtmWriting {
+    surface: In<Relightable>,
+    format: PtmFormat,
+}
+
+fn write_ptm(cx: &RunCx, w: &PtmWriting) -> Result<Bytes, StageError> {
+    let s = cx.get(w.surface);
+    if s.basis != Basis::Ptm {
+        return Err(StageError::new(
+            "a `.ptm` file holds PTM coefficients: fit the representation with `method = ptm`",
+        )
+        .at_prop("from"));
+    }
+    let maps = s.framed_maps().map_err(|e| rotation_error(e, "from"))?;
+    let planes: Vec<f64> = maps.data.iter().map(|&v| f64::from(v)).collect();
+    let chroma = s.chroma_planes();
+    ptm_file::write_ptm(maps.width, maps.height, &planes, chroma.as_deref(), w.format)
+        .map(Bytes)
+        .map_err(|e| relight_error(e, "from"))
 }
 
 fn draw(cx: &RunCx, v: &Viewing) -> Result<Bytes, StageError> {
