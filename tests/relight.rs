@@ -138,14 +138,7 @@ fn a_quilted_representation_relights_as_its_gathered_sample() {
 /// A build that fails with `message`, pointing at `snippet`; returns stderr.
 #[track_caller]
 fn refused(body: &str, message: &str, snippet: &str) -> String {
-    let p = project(body);
-    let run = p.tessera(&["build", "scene.tess"]);
-    run.failed();
-    let err = run.stderr();
-    assert!(flat(&err).contains(message), "expected `{message}` in:\n{err}");
-    assert!(err.contains(snippet), "expected the label on `{snippet}`:\n{err}");
-    assert!(!p.path("out/scene").exists(), "nothing is written");
-    err
+    project(body).refuses(message, snippet)
 }
 
 fn twelve_at_45() -> String {

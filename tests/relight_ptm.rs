@@ -118,13 +118,7 @@ fn the_golden_check_compares_ptm_files() {
 
 #[track_caller]
 fn refused(body: &str, message: &str, snippet: &str) {
-    let p = project(&format!("{}{body}", head()));
-    let run = p.tessera(&["build", "scene.tess"]);
-    run.failed();
-    let err = run.stderr();
-    assert!(flat(&err).contains(message), "expected `{message}` in:\n{err}");
-    assert!(err.contains(snippet), "expected the label on `{snippet}`:\n{err}");
-    assert!(!p.path("out/scene").exists(), "nothing is written");
+    project(&format!("{}{body}", head())).refuses(message, snippet);
 }
 
 #[test]

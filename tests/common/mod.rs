@@ -79,6 +79,21 @@ pub struct Stage {
     pub status: String,
 }
 
+impl Project {
+    /// Builds `scene.tess`, which must fail with `message` (whitespace-flattened) labelled on
+    /// `snippet`, writing nothing; returns stderr.
+    #[track_caller]
+    pub fn refuses(&self, message: &str, snippet: &str) -> String {
+        let run = self.tessera(&["build", "scene.tess"]);
+        run.failed();
+        let err = run.stderr();
+        assert!(flat(&err).contains(message), "expected `{message}` in:\n{err}");
+        assert!(err.contains(snippet), "expected the label on `{snippet}`:\n{err}");
+        assert!(!self.path("out/scene").exists(), "nothing is written");
+        err
+    }
+}
+
 pub fn parse_report(json: &str) -> Vec<Stage> {
     let v: serde_json::Value = serde_json::from_str(json).expect("report is JSON");
     v["scenes"]
