@@ -58,7 +58,7 @@ impl Light {
         DVec3::new(v.x, -v.y, v.z)
     }
 
-    /// Whether two lights are the same direction: tilt and slant within [`SAME_DEG`].
+    /// Whether two lights are the same direction: tilt and slant within `SAME_DEG`.
     pub fn same(&self, other: &Light) -> bool {
         let dt = (self.tilt_deg - other.tilt_deg).rem_euclid(360.0);
         let dt = dt.min(360.0 - dt);
