@@ -114,6 +114,11 @@ fn the_golden_check_compares_ptm_files() {
     let run = p.tessera(&["check", "scene.tess"]);
     run.failed();
     assert!(flat(&format!("{}{}", run.stdout(), run.stderr())).contains("golden does not decode"));
+    // A `.ptm` golden no output writes any more is stale: pruning removes it.
+    p.write_bytes("golden/scene/old.ptm", &p.read("out/scene/rock.ptm"));
+    p.tessera(&["bless", "scene.tess", "--prune", "-q"]).ok();
+    assert!(!p.path("golden/scene/old.ptm").exists(), "the stale PTM golden was kept");
+    assert!(p.path("golden/scene/rock.ptm").exists());
 }
 
 #[track_caller]

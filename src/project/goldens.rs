@@ -9,9 +9,9 @@ use super::{plain_error, Built, Failed, Project};
 use crate::graph::files;
 use crate::lang::diag::suggest;
 
-/// Extensions of the files an output can be (PNG, EXR, JSON, SVG): nothing else below a
+/// Extensions of the files an output can be (PNG, EXR, JSON, SVG, PTM): nothing else below a
 /// golden directory is ever taken for a golden.
-const GOLDEN_EXTENSIONS: [&str; 4] = ["png", "exr", "json", "svg"];
+const GOLDEN_EXTENSIONS: [&str; 5] = ["png", "exr", "json", "svg", "ptm"];
 
 impl Project {
     /// Writes the current outputs named by `names` (every output when `None`) as goldens, as
