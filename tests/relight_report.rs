@@ -93,19 +93,11 @@ fn against_prototype(s: Scenario) -> (Vec<(f64, f64, f64)>, Vec<String>) {
     (got, bad)
 }
 
-/// Dong `item 12` on the thesis-like scenarios: 3I > Gradient > max(PTM, Eigen3) ≥
-/// min(PTM, Eigen3) > Eigen6 in both modes, prediction worse than reconstruction for every
-/// method, and Eigen6 losing the most to prediction.
+/// [`fixtures::assert_thesis_orderings`] on the (recon, pred, Frobenius) triples of a report.
 fn assert_thesis_orderings(s: Scenario, got: &[(f64, f64, f64)]) {
     let recon: Vec<f64> = got.iter().map(|g| g.0).collect();
     let pred: Vec<f64> = got.iter().map(|g| g.1).collect();
-    for (mode, v) in [("reconstruction", &recon), ("prediction", &pred)] {
-        let (hi, lo) = (v[2].max(v[3]), v[2].min(v[3]));
-        assert!(v[0] > v[1] && v[1] > hi && hi >= lo && lo > v[4], "{s:?} {mode} ordering: {v:?}");
-    }
-    let gaps: Vec<f64> = (0..5).map(|i| pred[i] - recon[i]).collect();
-    assert!(gaps.iter().all(|&g| g > 0.0), "{s:?} prediction η > reconstruction η: {gaps:?}");
-    assert!((0..4).all(|i| gaps[4] > gaps[i]), "{s:?} Eigen6 has the largest gap: {gaps:?}");
+    fixtures::assert_thesis_orderings(s, &recon, &pred);
 }
 
 /// Dong `item 12`, scenario B (specular, unshadowed) from its files.

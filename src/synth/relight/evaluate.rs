@@ -136,7 +136,9 @@ pub fn evaluate(stack: &PhotoStack, methods: &[Method], predict: bool) -> Result
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synth::relight::fixtures::{meets_prototype, scenario, Scenario, PROTOTYPE};
+    use crate::synth::relight::fixtures::{
+        assert_thesis_orderings, meets_prototype, scenario, Prototype, Scenario, PROTOTYPE,
+    };
 
     const ALL: [Method; 5] = [Method::ThreeI, Method::Gradient, Method::Ptm, Method::Eigen(3), Method::Eigen(6)];
 
@@ -157,23 +159,12 @@ mod tests {
         assert!((r2.eta_literal - r2.eta / 16.0).abs() < 1e-12);
     }
 
-    /// (scenario, recon η, pred η, recon Frobenius) of the reference prototype, methods in the
-    /// order 3I, Gradient, PTM, Eigen3, Eigen6 (`fixtures::PROTOTYPE`) [references: dong §4.5.1]
-    #[allow(clippy::type_complexity)]
-    fn table() -> Vec<(Scenario, [f64; 5], [f64; 5], Option<[f64; 5]>)> {
-        PROTOTYPE.iter().map(|p| (p.scenario, p.recon, p.pred, p.frobenius)).collect()
-    }
-
-    fn close(got: f64, want: f64) -> bool {
-        meets_prototype(got, want)
-    }
-
     /// Dong `item 12` (and the numeric parts of `items 7 and 10`): the prototype table in both
     /// modes, within ±2 % (≤ 1e-6 where 0), and every ordering the thesis reports.
     #[test]
     fn the_prototype_table_is_reproduced() {
         let mut bad = Vec::new();
-        for (s, recon, pred, frob) in table() {
+        for &Prototype { scenario: s, recon, pred, frobenius: frob } in &PROTOTYPE {
             let st = scenario(s).stack;
             let ev = evaluate(&st, &ALL, true).unwrap();
             let r: Vec<f64> = ev.methods.iter().map(|m| m.reconstruction.eta).collect();
@@ -182,26 +173,20 @@ mod tests {
             println!("{s:?} recon η {r:.4?}\n{s:?} pred  η {p:.4?}\n{s:?} recon F {f:.4?}");
             println!("{s:?} f_cumu(1,2,3,6) {:.4?}", [0, 1, 2, 5].map(|i| ev.spectrum.f_cumu[i]));
             for i in 0..5 {
-                if !close(r[i], recon[i]) {
+                if !meets_prototype(r[i], recon[i]) {
                     bad.push(format!("{s:?} recon {}: {} vs {}", ALL[i].name(), r[i], recon[i]));
                 }
-                if !close(p[i], pred[i]) {
+                if !meets_prototype(p[i], pred[i]) {
                     bad.push(format!("{s:?} pred {}: {} vs {}", ALL[i].name(), p[i], pred[i]));
                 }
                 if let Some(fr) = frob {
-                    if !close(f[i], fr[i]) {
+                    if !meets_prototype(f[i], fr[i]) {
                         bad.push(format!("{s:?} Frobenius {}: {} vs {}", ALL[i].name(), f[i], fr[i]));
                     }
                 }
             }
             if matches!(s, Scenario::B | Scenario::C) {
-                for (mode, v) in [("recon", &r), ("pred", &p)] {
-                    let (hi, lo) = (v[2].max(v[3]), v[2].min(v[3]));
-                    assert!(v[0] > v[1] && v[1] > hi && hi >= lo && lo > v[4], "{s:?} {mode} ordering: {v:?}");
-                }
-                let gaps: Vec<f64> = (0..5).map(|i| p[i] - r[i]).collect();
-                assert!(gaps.iter().all(|&g| g > 0.0), "{s:?} pred > recon: {gaps:?}");
-                assert!((0..4).all(|i| gaps[4] > gaps[i]), "{s:?} Eigen6 has the largest gap: {gaps:?}");
+                assert_thesis_orderings(s, &r, &p);
             }
             for i in 0..5 {
                 if r[i] > 1e-6 {
@@ -217,7 +202,7 @@ mod tests {
         for (s, want) in f_cumu {
             let ev = evaluate(&scenario(s).stack, &[], false).unwrap();
             for (k, w) in [0, 1, 2, 5].into_iter().zip(want) {
-                if !close(ev.spectrum.f_cumu[k], w) {
+                if !meets_prototype(ev.spectrum.f_cumu[k], w) {
                     bad.push(format!("{s:?} f_cumu({}) {} vs {w}", k + 1, ev.spectrum.f_cumu[k]));
                 }
             }

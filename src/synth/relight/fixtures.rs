@@ -166,6 +166,21 @@ pub const PROTOTYPE: [Prototype; 4] = [
     },
 ];
 
+/// Dong `item 12` on the thesis-like scenarios (B, C), η per method in the order of
+/// [`PROTOTYPE`]: 3I > Gradient > max(PTM, Eigen3) ≥ min(PTM, Eigen3) > Eigen6 in both modes,
+/// prediction worse than reconstruction for every method, and Eigen6 losing the most to
+/// prediction. Panics with the first ordering that fails.
+#[track_caller]
+pub fn assert_thesis_orderings(s: Scenario, recon: &[f64], pred: &[f64]) {
+    for (mode, v) in [("reconstruction", recon), ("prediction", pred)] {
+        let (hi, lo) = (v[2].max(v[3]), v[2].min(v[3]));
+        assert!(v[0] > v[1] && v[1] > hi && hi >= lo && lo > v[4], "{s:?} {mode} ordering: {v:?}");
+    }
+    let gaps: Vec<f64> = (0..5).map(|i| pred[i] - recon[i]).collect();
+    assert!(gaps.iter().all(|&g| g > 0.0), "{s:?} prediction η > reconstruction η: {gaps:?}");
+    assert!((0..4).all(|i| gaps[4] > gaps[i]), "{s:?} Eigen6 has the largest gap: {gaps:?}");
+}
+
 /// Whether `got` meets the prototype's `want`: ±2 % relative, or ≤ 1e-6 where `want` is 0.
 pub fn meets_prototype(got: f64, want: f64) -> bool {
     if want == 0.0 {
