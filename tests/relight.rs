@@ -380,3 +380,31 @@ fn edits_re_run_only_the_stages_they_change() {
         assert!(again.contains(&stage.to_string()), "{stage} did not re-run after an image changed: {again:?}");
     }
 }
+
+/// Numbers at their hostile values: out of range, beyond the capture, too large to hold, or a
+/// bit depth the files' codes overflow, each a diagnostic at its property, nothing written.
+#[test]
+fn hostile_numbers_are_refused_at_the_property() {
+    let scene = |sample: &str, rep: &str, out: &str| {
+        format!(
+            "sample cobbles {{\n  capture = \"cobbles/cobbles.lp\"\n{sample}}}\n\n\
+             representation rock {{\n  from = cobbles\n  method = eigen\n{rep}}}\n\n\
+             output \"o.exr\" {{\n  from = rock\n{out}}}\n"
+        )
+    };
+    for (sample, rep, out, message, snippet) in [
+        ("", "  components = 0\n", "", "expected an integer from 1 to 64, found 0", "components = 0"),
+        ("", "  components = -3\n", "", "found -3", "components = -3"),
+        ("", "  components = 1000000000000\n", "", "found 1000000000000", "components = 1000000000000"),
+        ("", "  components = 37\n", "", "Eigen-37 needs k between 1 and the number of images (36)", "components = 37"),
+        ("  bit_depth = 0\n", "", "", "expected an integer from 1 to 16, found 0", "bit_depth = 0"),
+        ("  bit_depth = 17\n", "", "", "found 17", "bit_depth = 17"),
+        ("  bit_depth = 4\n", "", "", "more than 4 bits can hold (15)", "bit_depth = 4"),
+        ("", "", "  light = light(tilt = 0 deg, slant = -10 deg)\n", "must be from 0 deg to 90 deg", "-10 deg"),
+        ("", "", "  light = light(tilt = 0 deg, slant = 95 deg)\n", "must be from 0 deg to 90 deg", "95 deg"),
+        ("", "", "  light = light(tilt = 1e300 deg, slant = 45 deg)\n", "is too large", "1e300"),
+        ("", "", "  light = light(tilt = 0 deg, slant = 1e-7 deg)\n", "outside the captured slant range", "light ="),
+    ] {
+        project(&scene(sample, rep, out)).refuses(message, snippet);
+    }
+}

@@ -161,7 +161,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Capture>, Diagnostic> {
         transfer: TRANSFERS.get(props.enumeration("transfer")),
         prep,
     };
-    let stage = FnStage::keyed("sample.capture", 2, loading, load);
+    let stage = FnStage::keyed("sample.capture", 3, loading, load);
     Ok(p.add(format!("sample {}", d.name), stage, Inputs::new(), files))
 }
 
@@ -280,6 +280,15 @@ fn load(cx: &RunCx, l: &Loading) -> Result<Capture, StageError> {
                 // divided once, so a value is `code / 4095` correctly rounded (rescaling the
                 // f32 instead rounds twice and is one ulp off for most codes).
                 let (stored, full) = (((1u64 << file_depth) - 1) as f64, ((1u64 << bits) - 1) as f64);
+                let top = img.data.iter().fold(0f32, |a, &v| a.max(v));
+                let code = (f64::from(top) * stored).round();
+                if code > full {
+                    return Err(StageError::new(format!(
+                        "`{name}` holds the code {code}, more than {bits} bits can hold ({full})"
+                    ))
+                    .at_prop("bit_depth")
+                    .with_help("`bit_depth` is the camera's depth: every code of the files must fit in it"));
+                }
                 img.data.iter_mut().for_each(|v| *v = ((f64::from(*v) * stored).round() / full) as f32);
             }
         }
