@@ -70,6 +70,9 @@ pub enum Value {
     Library,
     /// A photometric capture: images of one surface under known lights.
     Capture,
+    /// A patch: a colour image with a height layer of its size (and a mask), Frasson's unit of
+    /// depth synthesis.
+    Patch,
 }
 
 impl Value {
@@ -82,6 +85,7 @@ impl Value {
             Value::Example => "a structure example",
             Value::Library => "a library",
             Value::Capture => "a photometric capture",
+            Value::Patch => "a patch (a sample with a `height` layer)",
         }
     }
 }

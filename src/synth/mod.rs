@@ -8,6 +8,7 @@ pub mod mesh;
 pub mod metrics;
 pub mod progress;
 pub mod quilt;
+pub mod relief;
 pub mod relight;
 pub mod rng;
 pub mod structure;

@@ -25,6 +25,7 @@ use crate::synth::quilt::{
 use crate::synth::surface::Plane;
 use crate::synth::Progress;
 
+mod relief;
 mod spec;
 pub use spec::SPEC;
 
@@ -42,6 +43,9 @@ struct Wiring {
 
 pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
     let props = &d.props;
+    if props.get("relief").is_some() {
+        return relief::plan(p, d);
+    }
     match (props.reference("quilt"), props.get("blend")) {
         (Some(sample), None) => plan_quilt(p, d, sample),
         (None, Some(_)) => plan_blend(p, d),
@@ -52,7 +56,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
         (None, None) => {
             Err(Diagnostic::error(format!("layer `{}` says neither what to quilt nor what to blend", d.name))
                 .with_code("tessera::missing_property")
-                .with_label(d.name_span, "give it `quilt = SAMPLE` or `blend = [A, B]`"))
+                .with_label(d.name_span, "give it `quilt = SAMPLE`, `blend = [A, B]` or `relief = [PATCH, …]`"))
         }
     }
 }
@@ -84,6 +88,7 @@ impl super::Kind for Layer {
         // their first source's).
         let source = match d.props.reference("quilt") {
             Some(s) => s.to_string(),
+            None if d.props.get("relief").is_some() => d.props.refs("relief")[0].clone(),
             None => d.props.refs("blend")[0].clone(),
         };
         p.export(d).image = Some(p.color_space(&source));
@@ -98,6 +103,20 @@ impl super::Kind for Layer {
             if own || file || (view == View::Auto && out.decl.props.span("light").is_some()) {
                 return super::representation::plan_view(p, out, surface).map(Some);
             }
+        }
+        if let (View::Height, Some(depth)) = (view, p.part::<Image>(out.from, "depth")) {
+            if out.format.is_text() {
+                return Err(Diagnostic::error("a relief layer's height is an image")
+                    .with_code("tessera::output_view")
+                    .with_label(out.decl.name_span, "write it as .png or .exr"));
+            }
+            let mut inputs = Inputs::new();
+            let depth = inputs.add(depth);
+            let format = out.format;
+            let stage =
+                FnStage::keyed("output.image", 1, (depth, format), |cx, &(d, f)| encode_image(&cx.get(d), f));
+            let node = p.add(format!("output {}", out.decl.name), stage, inputs, vec![]);
+            return Ok(Some(super::ViewNode { node, exact: false }));
         }
         if view == View::Auto {
             if let Some(span) = out.decl.props.span("light") {
@@ -122,10 +141,9 @@ impl super::Kind for Layer {
     }
 }
 
-fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<Handle<Image>, Diagnostic> {
+/// The block and overlap of a quilted or relief layer, the overlap checked against the block.
+fn block_and_overlap(d: &Decl) -> Result<(usize, usize), Diagnostic> {
     let props = &d.props;
-    let ((w, h), size_at) = quilt_size(p, d);
-    p.check_pixels(d, size_at, (w, h), QUILT_BYTES_PER_PIXEL)?;
     let block = props.pixels("block");
     let overlap = props.opt_pixels("overlap").unwrap_or(quilt::default_overlap(block));
     if overlap >= block {
@@ -139,6 +157,14 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<Handle<Image>, 
             quilt::default_overlap(block)
         )));
     }
+    Ok((block, overlap))
+}
+
+fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<Handle<Image>, Diagnostic> {
+    let props = &d.props;
+    let ((w, h), size_at) = quilt_size(p, d);
+    p.check_pixels(d, size_at, (w, h), QUILT_BYTES_PER_PIXEL)?;
+    let (block, overlap) = block_and_overlap(d)?;
     if props.get("mix").is_some() != props.get("density").is_some() {
         let (have, missing) = if props.get("mix").is_some() { ("mix", "density") } else { ("density", "mix") };
         return Err(Diagnostic::error(format!("`{have}` needs `{missing}`"))
@@ -158,7 +184,7 @@ fn plan_quilt(p: &mut Planner, d: &Decl, sample: &str) -> Result<Handle<Image>, 
     };
     let mut params = QuiltParams::new(w, h, block, p.seed(d, "layer.quilt"));
     params.overlap = overlap;
-    params.tolerance = props.num("tolerance") as f32;
+    params.tolerance = props.opt_num("tolerance").unwrap_or(0.1) as f32;
     params.metric = spec::METRICS.get(props.enumeration("metric"));
     params.equalise = spec::EQUALISE.get(props.enumeration("equalise"));
     params.channel_weights = props.opt_numbers("weights").map(|w| w.iter().map(|&v| v as f32).collect());
@@ -343,6 +369,7 @@ fn prop_of(input: quilt::Input) -> &'static str {
         I::Orientation => "orientation",
         I::OrientationCopies => "copies",
         I::Occupancy => "on",
+        I::IgnoreMask => "relief",
         I::Output
         | I::Sample
         | I::Samples

@@ -59,7 +59,7 @@ static SOLVER: &[PropSpec] = &[
 
 pub static SPEC: KindSpec = KindSpec {
     name: "layer",
-    doc: "A synthesised image layer: a sample grown onto a surface by image quilting (`quilt = ...`), or layers blended under a mask in the gradient domain (`blend = [...]`). Give exactly one of `quilt` and `blend`.",
+    doc: "A synthesised image layer: a sample grown onto a surface by image quilting (`quilt = ...`), colour and depth grown from patches under a guide (`relief = [...]`), or layers blended under a mask in the gradient domain (`blend = [...]`). Give exactly one of `quilt`, `relief` and `blend`.",
     naming: Naming::Ident,
     produces: &[Value::Image],
     settings: &[],
@@ -88,8 +88,8 @@ pub static SPEC: KindSpec = KindSpec {
         prop(
             "tolerance",
             Ty::Number(Unit::Plain, NON_NEG),
-            Default::Text("0.1"),
-            "Candidates within (1 + tolerance) × the best error are eligible; one is drawn (seeded). 0 takes the best.",
+            Default::Absent,
+            "Candidates within (1 + tolerance) × the best error are eligible; one is drawn (seeded). 0 takes the best. Default 0.1; relief layers 0.",
         ),
         prop(
             "metric",
@@ -182,6 +182,25 @@ pub static SPEC: KindSpec = KindSpec {
             Ty::Pixels(Range { min: 1.0, max: 256.0 }),
             Default::Text("4 px"),
             "Half-width of the band solved by `seams = gradient`.",
+        ),
+        // Relief (Frasson Sec. 5.3.1).
+        prop(
+            "relief",
+            Ty::Refs(&[Value::Patch]),
+            Default::Absent,
+            "Synthesise colour and depth together from these patches (samples with a `height`) under `guide`: each block comes from the patch nearest in mean CIELAB colour to the guide block, scored by `terms`. The layer's image is the colour; `view = height` writes the depth.",
+        ),
+        prop(
+            "terms",
+            Ty::Numbers(Unit::Plain, UNIT),
+            Default::Text("[0.3, 0.5, 0.2]"),
+            "Relief: the weights [α1, α2, α3] of E = α1·overlap colour error + α2·guide error + α3·overlap depth error, summing to 1; each term is a mean over its pixels.",
+        ),
+        prop(
+            "depth_blur",
+            Ty::Number(Unit::Length, Range { min: 0.0, max: 256.0 }),
+            Default::Text("0 px"),
+            "Relief: Gaussian σ softening the depth's block steps (0 = off).",
         ),
         // Blending (Welsman-Dinelle, after Pérez et al.).
         prop(

@@ -4,6 +4,7 @@
 
 pub(super) mod capture;
 mod lp;
+pub(super) mod patch;
 
 use super::{Bytes, FnStage, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
@@ -20,7 +21,7 @@ pub static SPEC: KindSpec = KindSpec {
     name: "sample",
     doc: "Example material: a photo or painted image, and files that later stages read (a structure drawing).",
     naming: Naming::Ident,
-    produces: &[Value::Image, Value::Example, Value::Capture],
+    produces: &[Value::Image, Value::Example, Value::Capture, Value::Patch],
     settings: &[],
     extent: Extent::None,
     props: &[
@@ -91,6 +92,18 @@ pub static SPEC: KindSpec = KindSpec {
             doc: "How a capture's values map to intensity: `auto` takes 8-bit PNGs as sRGB-encoded and 16-bit PNGs and EXRs as linear.",
         },
         PropSpec {
+            name: "height",
+            ty: Ty::Path,
+            default: Default::Absent,
+            doc: "With `image`: the height layer that makes the sample a patch for `relief` layers. A grey image of the image's size, read as stored (PNG codes over full scale, EXR values; no colour conversion), 0 lowest and 1 highest; `crop` and `resize` apply to it too.",
+        },
+        PropSpec {
+            name: "mask",
+            ty: Ty::Path,
+            default: Default::Absent,
+            doc: "With `height`: the patch's mask layer, pixels that matching ignores (white: shadows, highlights). Same size as the image.",
+        },
+        PropSpec {
             name: "structure",
             ty: Ty::Path,
             default: Default::Absent,
@@ -103,6 +116,7 @@ pub static SPEC: KindSpec = KindSpec {
 /// that an edit to the photo does not invalidate structure analysis and vice versa.
 pub fn plan(p: &mut Planner, d: &Decl) -> Result<AnyHandle, Diagnostic> {
     let props = &d.props;
+    patch::refuse_stray_layers(d)?;
     if capture::is_capture(d) {
         return capture::plan(p, d).map(Handle::erase);
     }
@@ -143,9 +157,12 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<AnyHandle, Diagnostic> {
     if let Some((w, h)) = prep.resize {
         p.check_pixels(d, d.props.span("resize"), (w as usize, h as usize), RESIZE_BYTES_PER_PIXEL)?;
     }
+    let geometry = prep.clone();
     let stage = FnStage::keyed("sample.image", 2, prep, |cx, prep| prep.apply(&cx.file(0)?, 0, cx.budget()));
     let span = props.span("image").unwrap_or(d.name_span);
-    Ok(p.add(format!("sample {}", d.name), stage, Inputs::new(), vec![(path, span)]).erase())
+    let image = p.add(format!("sample {}", d.name), stage, Inputs::new(), vec![(path, span)]);
+    patch::plan(p, d, image, geometry)?;
+    Ok(image.erase())
 }
 
 fn plan_similar(p: &mut Planner, d: &Decl, call: &crate::lang::ir::Call) -> Result<Handle<Image>, Diagnostic> {

@@ -176,6 +176,12 @@ pub struct QuiltOptions<'a> {
     /// Per sample, an optional sample-sized 1-channel map of allowed top-left candidate positions
     /// (value > 0.5 = allowed), e.g. Frasson's "block pallet" restricted to region interiors.
     pub allowed: Vec<Option<&'a Image>>,
+    /// Per sample, an optional sample-sized 1-channel mask of pixels to ignore (value > 0.5), such
+    /// as Frasson's mask layer over shadows and highlights: ignored pixels weigh 0 in every error
+    /// term, each term's weighted mean is taken over the pixels left, and candidate blocks more than
+    /// half ignored are rejected [references: frasson §5.3.1]. Sources with a mask are scored by the
+    /// direct sweep (both metrics), whose rounding bound holds for a ratio of non-negative sums.
+    pub ignore: Vec<Option<&'a Image>>,
     /// Told the number of blocks placed after each wave.
     pub progress: crate::synth::Progress<'a>,
 }
@@ -190,6 +196,7 @@ impl Default for QuiltOptions<'_> {
             choice: SampleChoice::All,
             orientation: None,
             allowed: Vec::new(),
+            ignore: Vec::new(),
             progress: crate::synth::Progress::none(),
         }
     }
@@ -220,6 +227,7 @@ pub enum Input {
     Orientation,
     OrientationCopies,
     AllowedPositions,
+    IgnoreMask,
     Gathered,
     GatheredImages,
     QuiltResult,
@@ -259,6 +267,7 @@ impl Input {
             Input::Orientation => "orientation field",
             Input::OrientationCopies => "orientation copies",
             Input::AllowedPositions => "allowed-position map",
+            Input::IgnoreMask => "mask",
             Input::Gathered => "gathered image",
             Input::GatheredImages => "gathered images",
             Input::QuiltResult => "quilt result",

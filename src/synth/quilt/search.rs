@@ -40,6 +40,8 @@ pub(super) struct Source {
     /// Allowed candidates (stride, user mask, rotation validity), as `qy * cw + qx`, ascending.
     pub allowed: Vec<u32>,
     pub allowed_mask: Vec<bool>,
+    /// Per pixel, 1 to use it and 0 to ignore it (the mask layer); `None` uses every pixel.
+    pub keep: Option<Vec<f32>>,
     /// Half spectra of the real planes `[S_0 … S_{C−1}, Q_o?, Q_g?]` (SSD only).
     pub spectra: Vec<Vec<Cx>>,
     /// L1 and L2 norms of each real plane (for the FFT rounding bound).
@@ -164,6 +166,9 @@ impl Template {
 /// The error of one candidate, summed in the canonical order (overlap term: channel by channel, pixel
 /// by pixel; then the guide term likewise).
 pub(super) fn direct_error(model: &Model, t: &Template, src: &Source, qx: usize, qy: usize) -> f64 {
+    if let Some(keep) = &src.keep {
+        return direct_error_masked(model, t, src, keep, qx, qy);
+    }
     let c_n = model.channels;
     let w = src.w();
     let plane = w * src.h();
@@ -187,6 +192,41 @@ pub(super) fn direct_error(model: &Model, t: &Template, src: &Source, qx: usize,
     acc
 }
 
+/// The error of a candidate in a source with ignored pixels: each term sums over the pixels kept
+/// and is divided by the share of its weight they hold (a term with nothing kept is 0), so a
+/// candidate is neither favoured nor penalised for what the mask hides.
+fn direct_error_masked(model: &Model, t: &Template, src: &Source, keep: &[f32], qx: usize, qy: usize) -> f64 {
+    let c_n = model.channels;
+    let w = src.w();
+    let plane = w * src.h();
+    let at = |dx: usize, dy: usize| (qy + dy) * w + qx + dx;
+    let share = |offs: &[(usize, usize)], wts: &[f64]| -> f64 {
+        offs.iter().zip(wts).map(|(&(dx, dy), &wt)| wt * f64::from(keep[at(dx, dy)])).sum()
+    };
+    let mut o = 0.0f64;
+    for &c in &model.active_o {
+        let work = &src.work[c * plane..(c + 1) * plane];
+        for (k, &(dx, dy)) in t.ov_off.iter().enumerate() {
+            let i = at(dx, dy);
+            let d = f64::from(work[i]) - f64::from(t.ov_val[k * c_n + c]);
+            o += f64::from(keep[i]) * t.ov_coef[k * c_n + c] * model.dist(d);
+        }
+    }
+    let g_n = model.mu_g.len();
+    let mut g = 0.0f64;
+    for &gi in &model.active_g {
+        let c = model.guide_map[gi];
+        let work = &src.work[c * plane..(c + 1) * plane];
+        for (k, &(dx, dy)) in t.gd_off.iter().enumerate() {
+            let i = at(dx, dy);
+            let d = f64::from(work[i]) - f64::from(t.gd_val[k * g_n + gi]);
+            g += f64::from(keep[i]) * t.gd_coef[k * g_n + gi] * model.dist(d);
+        }
+    }
+    let ratio = |sum: f64, share: f64| if share > 0.0 { sum / share } else { 0.0 };
+    ratio(o, share(&t.ov_off, &t.ov_w)) + ratio(g, share(&t.gd_off, &t.gd_w))
+}
+
 /// Approximate errors of every candidate position of a source (row-major over the candidate grid)
 /// summed in `f32` (twice the SIMD width of `f64`), in parallel over candidate rows, and the relative
 /// rounding bound `δ`: `|E32 − E| ≤ δ·E` for every candidate, because every term is non-negative (SAD).
@@ -198,6 +238,9 @@ pub(super) fn direct_all_f32(model: &Model, t: &Template, src: &Source, par: boo
     let plane = w * src.h();
     out.clear();
     out.resize(cw * chh, 0.0);
+    if let Some(keep) = &src.keep {
+        return masked_all_f32(model, t, src, keep, par, out);
+    }
     out.par_chunks_mut(cw).with_min_len(if par { 1 } else { usize::MAX }).enumerate().for_each(|(qy, acc)| {
         let mut run = |dx: usize, dy: usize, c: usize, coef: f64, target: f32| {
             let row = &src.work[c * plane + (qy + dy) * w + dx..][..cw];
@@ -237,6 +280,65 @@ pub(super) fn direct_all_f32(model: &Model, t: &Template, src: &Source, par: boo
     }
     let u = f64::from(f32::EPSILON) / 2.0;
     let k = (n + 5) as f64 * u;
+    1.01 * k / (1.0 - k)
+}
+
+/// [`direct_all_f32`] for a source with ignored pixels: per candidate row, the overlap and guide
+/// sums over kept pixels and the kept share of each term's weight, then `o/share_o + g/share_g`
+/// as in [`direct_error_masked`]. Every sum is of non-negative terms, so the relative bound holds,
+/// with a few roundings more for the shares and the division.
+fn masked_all_f32(model: &Model, t: &Template, src: &Source, keep: &[f32], par: bool, out: &mut [f32]) -> f64 {
+    let (cw, c_n, g_n) = (src.cw, model.channels, model.mu_g.len());
+    let w = src.w();
+    let plane = w * src.h();
+    out.par_chunks_mut(cw).with_min_len(if par { 1 } else { usize::MAX }).enumerate().for_each(|(qy, row_out)| {
+        let mut sums = [vec![0.0f32; cw], vec![0.0f32; cw]];
+        let mut shares = [vec![0.0f32; cw], vec![0.0f32; cw]];
+        let mut run = |term: usize, dx: usize, dy: usize, c: usize, coef: f64, target: f32| {
+            let base = (qy + dy) * w + dx;
+            let row = &src.work[c * plane + base..][..cw];
+            let kept = &keep[base..][..cw];
+            let coef = coef as f32;
+            for ((a, &s), &k) in sums[term].iter_mut().zip(row).zip(kept) {
+                let d = s - target;
+                let e = match model.metric {
+                    Metric::Sad => d.abs(),
+                    Metric::Ssd => d * d,
+                };
+                *a += k * (coef * e);
+            }
+        };
+        for &c in &model.active_o {
+            for (k, &(dx, dy)) in t.ov_off.iter().enumerate() {
+                run(0, dx, dy, c, t.ov_coef[k * c_n + c], t.ov_val[k * c_n + c]);
+            }
+        }
+        for &i in &model.active_g {
+            for (k, &(dx, dy)) in t.gd_off.iter().enumerate() {
+                run(1, dx, dy, model.guide_map[i], t.gd_coef[k * g_n + i], t.gd_val[k * g_n + i]);
+            }
+        }
+        for (term, (offs, wts)) in [(&t.ov_off, &t.ov_w), (&t.gd_off, &t.gd_w)].into_iter().enumerate() {
+            for (&(dx, dy), &wt) in offs.iter().zip(wts.iter()) {
+                let kept = &keep[(qy + dy) * w + dx..][..cw];
+                for (a, &k) in shares[term].iter_mut().zip(kept) {
+                    *a += k * wt as f32;
+                }
+            }
+        }
+        for (x, o) in row_out.iter_mut().enumerate() {
+            let ratio = |term: usize| if shares[term][x] > 0.0 { sums[term][x] / shares[term][x] } else { 0.0 };
+            *o = ratio(0) + ratio(1);
+        }
+    });
+    let n = model.active_o.len() * t.ov_off.len() + model.active_g.len() * t.gd_off.len();
+    let normal = |c: &f64| *c == 0.0 || ((*c as f32).is_normal() && *c < f64::from(f32::MAX));
+    if !(t.ov_coef.iter().all(normal) && t.gd_coef.iter().all(normal) && t.ov_w.iter().chain(&t.gd_w).all(normal)) {
+        return f64::INFINITY;
+    }
+    let u = f64::from(f32::EPSILON) / 2.0;
+    // The sum carries ≤ n + 6 roundings; each share ≤ n_pixels + 2 more and divides it.
+    let k = (2 * n + t.ov_off.len() + t.gd_off.len() + 12) as f64 * u;
     1.01 * k / (1.0 - k)
 }
 
@@ -332,8 +434,9 @@ pub(super) fn search(
 ) -> Choice {
     // Candidates that may be within the tolerance of the minimum, in index order.
     let mut shortlist: Vec<(usize, u32)> = Vec::new();
+    let masked = eligible.iter().any(|&si| sources[si].keep.is_some());
     match (model.metric, plan) {
-        (Metric::Ssd, Some(plan)) => {
+        (Metric::Ssd, Some(plan)) if !masked => {
             // |E_fft − E| ≤ margin for every candidate.
             let mut approx: Vec<(usize, Vec<f64>)> = Vec::with_capacity(eligible.len());
             let mut lo = f64::INFINITY;

@@ -792,6 +792,115 @@ fn f32_depth_term_improves_depth_coherence() {
     assert!(with <= 0.8 * without);
 }
 
+// ---- Frasson's mask layer -------------------------------------------------------------------------
+
+/// A patch with a bright "highlight" square, and its mask.
+fn highlighted(seed: u64, value: f32) -> (Image, Image) {
+    let mut pt = patch([0.7, 0.5, 0.4], seed);
+    let mask = Image::from_fn(100, 100, 1, |x, y, _| f32::from((30..60).contains(&x) && (20..50).contains(&y)));
+    for y in 20..50 {
+        for x in 30..60 {
+            for c in 0..4 {
+                pt.set(x, y, c, value);
+            }
+        }
+    }
+    (pt, mask)
+}
+
+#[test]
+fn masked_pixels_weigh_nothing_and_mostly_masked_blocks_are_never_taken() {
+    let guide = noise_texture(96, 3, 6, 61);
+    for metric in [Metric::Ssd, Metric::Sad] {
+        let run_with = |value: f32| {
+            let (pt, mask) = highlighted(60, value);
+            let mut p = params(96, 96, 16, 4, 62);
+            p.metric = metric;
+            let o = QuiltOptions {
+                guide: Some(Guide { image: &guide, weights: None, channels: Some(&[0, 1, 2]) }),
+                terms: Terms::with_depth(0.3, 0.5, 0.2),
+                depth_channels: vec![3],
+                choice: SampleChoice::NearestMean { lab: true },
+                ignore: vec![Some(&mask)],
+                ..QuiltOptions::default()
+            };
+            let r = quilt_with(&[&pt], &p, &o).unwrap();
+            for b in &r.blocks {
+                let masked = (0..16)
+                    .flat_map(|dy| (0..16).map(move |dx| (dx, dy)))
+                    .filter(|&(dx, dy)| mask.get(b.sx + dx, b.sy + dy, 0) > 0.5)
+                    .count();
+                assert!(2 * masked <= 256, "a block {masked}/256 masked was taken");
+            }
+            (r.blocks.iter().map(|b| (b.sx, b.sy)).collect::<Vec<_>>(), r.blocks.iter().map(|b| b.error).collect::<Vec<_>>())
+        };
+        // What lies under the mask never changes a choice or an error (it is pasted, but neither
+        // matched on the sample side nor, once pasted, in later overlaps).
+        let (white, e_white) = run_with(1.0);
+        let (black, e_black) = run_with(0.0);
+        assert_eq!(white, black, "{metric:?}");
+        assert_eq!(e_white, e_black, "{metric:?}");
+    }
+}
+
+#[test]
+fn a_masked_term_is_the_mean_over_the_pixels_kept() {
+    // A masked source's errors: each term a weighted mean over the kept pixels (checked against
+    // the formula by hand for a few candidates).
+    let (pt, mask) = highlighted(63, 0.9);
+    let guide = noise_texture(28, 3, 4, 64);
+    let guide = Image::from_fn(28, 16, 3, |x, y, c| guide.get(x, y, c));
+    let mut p = params(28, 16, 16, 4, 65);
+    p.equalise = Equalise::None;
+    let o = QuiltOptions {
+        guide: Some(Guide { image: &guide, weights: None, channels: Some(&[0, 1, 2]) }),
+        terms: Terms::with_depth(0.3, 0.5, 0.2),
+        depth_channels: vec![3],
+        ignore: vec![Some(&mask)],
+        ..QuiltOptions::default()
+    };
+    let mut first: Option<BlockRecord> = None;
+    let mut checked = 0;
+    traced(&[&pt], &p, &o, |t| {
+        let Some(b0) = &first else {
+            first = Some(t.record.clone());
+            return;
+        };
+        let x0 = t.record.x;
+        for (qx, qy) in [(25usize, 10usize), (40, 40), (0, 0), (70, 5)] {
+            let keep = |x: usize, y: usize| mask.get(qx + x, qy + y, 0) <= 0.5;
+            let s = |x: usize, y: usize, c: usize| f64::from(pt.get(qx + x, qy + y, c));
+            let prev = |x: usize, y: usize, c: usize| f64::from(pt.get(b0.sx + x0 + x, b0.sy + y, c));
+            let (mut o_sum, mut d_sum, mut n_o, mut g_sum, mut n_g) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for y in 0..16 {
+                for x in 0..16 {
+                    if !keep(x, y) {
+                        continue;
+                    }
+                    // Overlap pixels pasted from ignored pixels of block 0 are ignored too.
+                    let prev_kept = mask.get(b0.sx + x0 + x, b0.sy + y, 0) <= 0.5;
+                    if x < 4 && prev_kept {
+                        o_sum += (0..3).map(|c| (prev(x, y, c) - s(x, y, c)).powi(2)).sum::<f64>();
+                        d_sum += (prev(x, y, 3) - s(x, y, 3)).powi(2);
+                        n_o += 1.0;
+                    }
+                    if x0 + x < 28 {
+                        g_sum += (0..3).map(|c| (s(x, y, c) - f64::from(guide.get(x0 + x, y, c))).powi(2)).sum::<f64>();
+                        n_g += 1.0;
+                    }
+                }
+            }
+            let (a1, a2, a3) = (f64::from(0.3f32), f64::from(0.5f32), f64::from(0.2f32));
+            let mean = |sum: f64, n: f64| if n > 0.0 { sum / n } else { 0.0 };
+            let e = mean(a1 * o_sum / 3.0 + a3 * d_sum, n_o) + mean(a2 * g_sum / 3.0, n_g);
+            let got = t.error(0, qx, qy);
+            assert!((got - e).abs() <= 1e-9 * e.max(1e-12), "({qx},{qy}): {got} vs {e}");
+            checked += 1;
+        }
+    });
+    assert_eq!(checked, 4);
+}
+
 // ---- validation ---------------------------------------------------------------------------------
 
 #[test]

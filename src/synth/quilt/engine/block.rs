@@ -60,6 +60,12 @@ pub(super) struct Job {
 }
 
 impl Ctx<'_> {
+    /// Whether the output pixel `q` (filled) came from a sample pixel its mask keeps.
+    fn kept(&self, st: &State, q: usize) -> bool {
+        let Some((s, x, y)) = st.index.get(q % self.p.width, q / self.p.width) else { return true };
+        self.sources[s].keep.as_ref().is_none_or(|k| k[y * self.sources[s].w() + x] > 0.0)
+    }
+
     fn pix(&self, i: usize, j: usize, dx: usize, dy: usize) -> usize {
         self.ay.at(j, dy) * self.p.width + self.ax.at(i, dx)
     }
@@ -135,7 +141,8 @@ impl Ctx<'_> {
         for dy in 0..bh {
             for dx in 0..bw {
                 let q = pix(dx, dy);
-                if st.filled[q] && !model.active_o.is_empty() {
+                // A pixel pasted from an ignored sample pixel is ignored in the overlap too.
+                if st.filled[q] && !model.active_o.is_empty() && self.kept(st, q) {
                     t.ov_off.push((dx, dy));
                     t.ov_val.extend((0..channels).map(|c| st.canvas[c * n_px + q]));
                 }
@@ -219,10 +226,11 @@ impl Ctx<'_> {
         ];
         let new = new_region(bw, bh, sides, |dx, dy| {
             let q = pix(dx, dy);
-            if !st.filled[q] {
+            let s = (choice.qy + dy) * sw + choice.qx + dx;
+            // Ignored pixels, on either side, cost nothing to cut through.
+            if !st.filled[q] || !self.kept(st, q) || src.keep.as_ref().is_some_and(|k| k[s] == 0.0) {
                 return 0.0;
             }
-            let s = (choice.qy + dy) * sw + choice.qx + dx;
             let mut e = 0.0;
             for c in 0..channels {
                 let m = model.mu_cut[c];

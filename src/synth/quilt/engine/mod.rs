@@ -114,7 +114,7 @@ pub(super) fn run(
     };
 
     // ---- sources -----------------------------------------------------------------------------
-    let eq = equalisation(samples, p.equalise);
+    let eq = equalisation(samples, &o.ignore, p.equalise);
     let all_channels: Vec<usize> = (0..channels).collect();
     let copies = o.orientation.map_or(1, |or| or.copies);
     let plan = (p.metric == Metric::Ssd).then(|| {
@@ -139,17 +139,35 @@ pub(super) fn run(
                     .copied()
                     .flatten()
                     .map(|m| if k == 0 { m.clone() } else { rotate_sample(m, angle).0 });
-            // Invalid-pixel summed-area table for rotation validity.
-            let mut sat = vec![0u32; (w + 1) * (h + 1)];
-            if let Some(v) = &valid {
+            // Pixels to ignore (the mask layer), 1 = keep.
+            let keep: Option<Vec<f32>> = o.ignore.get(si).copied().flatten().map(|m| {
+                let m = if k == 0 { m.clone() } else { rotate_sample(m, angle).0 };
+                m.data.iter().map(|&v| if v > 0.5 { 0.0 } else { 1.0 }).collect()
+            });
+            // Summed-area tables of invalid pixels (rotation) and of ignored ones.
+            let table = |bad: &dyn Fn(usize) -> bool| {
+                let mut sat = vec![0u32; (w + 1) * (h + 1)];
                 for y in 0..h {
                     for x in 0..w {
-                        sat[(y + 1) * (w + 1) + x + 1] =
-                            u32::from(!v[y * w + x]) + sat[y * (w + 1) + x + 1] + sat[(y + 1) * (w + 1) + x]
-                                - sat[y * (w + 1) + x];
+                        sat[(y + 1) * (w + 1) + x + 1] = u32::from(bad(y * w + x)) + sat[y * (w + 1) + x + 1]
+                            + sat[(y + 1) * (w + 1) + x]
+                            - sat[y * (w + 1) + x];
                     }
                 }
-            }
+                sat
+            };
+            let sat = match &valid {
+                Some(v) => table(&|i| !v[i]),
+                None => Vec::new(),
+            };
+            let ignored = match &keep {
+                Some(kp) => table(&|i| kp[i] == 0.0),
+                None => Vec::new(),
+            };
+            let boxed = |sat: &[u32], qx: usize, qy: usize| {
+                let s = |x: usize, y: usize| sat[y * (w + 1) + x];
+                s(qx + b, qy + b) + s(qx, qy) - s(qx + b, qy) - s(qx, qy + b)
+            };
             let (cgw, cgh) = (w - b + 1, h - b + 1);
             let mut allowed_mask = vec![false; cgw * cgh];
             let mut allowed = Vec::new();
@@ -160,8 +178,11 @@ pub(super) fn run(
                         ok &= m.data[qy * w + qx] > 0.5;
                     }
                     if valid.is_some() {
-                        let s = |x: usize, y: usize| sat[y * (w + 1) + x];
-                        ok &= s(qx + b, qy + b) + s(qx, qy) == s(qx + b, qy) + s(qx, qy + b);
+                        ok &= boxed(&sat, qx, qy) == 0;
+                    }
+                    if keep.is_some() {
+                        // Candidates more than half ignored are rejected.
+                        ok &= 2 * boxed(&ignored, qx, qy) as usize <= b * b;
                     }
                     if ok {
                         allowed_mask[qy * cgw + qx] = true;
@@ -184,6 +205,7 @@ pub(super) fn run(
                 ch: cgh,
                 allowed,
                 allowed_mask,
+                keep,
                 spectra: Vec::new(),
                 norm1: Vec::new(),
                 norm2: Vec::new(),
@@ -211,7 +233,12 @@ pub(super) fn run(
     let sample_means: Vec<Vec<f64>> = match (o.choice, &o.guide) {
         (SampleChoice::NearestMean { lab }, Some(_)) => samples
             .iter()
-            .map(|s| mean_colour(s, &guide_map, lab, (0..s.plane_len()).map(|i| (i, 1.0))).unwrap_or_default())
+            .enumerate()
+            .map(|(si, s)| {
+                let ignore = o.ignore.get(si).copied().flatten();
+                let weight = |i: usize| ignore.map_or(1.0, |m| if m.data[i] > 0.5 { 0.0 } else { 1.0 });
+                mean_colour(s, &guide_map, lab, (0..s.plane_len()).map(|i| (i, weight(i)))).unwrap_or_default()
+            })
             .collect(),
         _ => Vec::new(),
     };

@@ -5,14 +5,22 @@ use crate::raster::color::linear_rgb_to_lab;
 use crate::raster::Image;
 use crate::synth::quilt::params::Equalise;
 
-/// Per-channel `(offset, scale)` of the equalisation, pooled over all samples.
-pub(super) fn equalisation(samples: &[&Image], mode: Equalise) -> Vec<(f64, f64)> {
+/// Per-channel `(offset, scale)` of the equalisation, pooled over all samples, leaving out the
+/// pixels each sample's mask (`ignore`, value > 0.5) says to ignore.
+pub(super) fn equalisation(samples: &[&Image], ignore: &[Option<&Image>], mode: Equalise) -> Vec<(f64, f64)> {
     let channels = samples[0].channels;
+    let kept = |si: usize, i: usize| ignore.get(si).copied().flatten().is_none_or(|m| m.data[i] <= 0.5);
     (0..channels)
         .map(|c| {
-            let values = || samples.iter().flat_map(move |s| s.plane(c).iter().map(|&v| f64::from(v)));
+            let values = || {
+                samples.iter().enumerate().flat_map(move |(si, s)| {
+                    s.plane(c).iter().enumerate().filter(move |&(i, _)| kept(si, i)).map(|(_, &v)| f64::from(v))
+                })
+            };
             match mode {
                 Equalise::None => (0.0, 1.0),
+                Equalise::MinMax if values().next().is_none() => (0.0, 1.0),
+                Equalise::ZScore if values().next().is_none() => (0.0, 1.0),
                 Equalise::MinMax => {
                     let lo = values().fold(f64::INFINITY, f64::min);
                     let hi = values().fold(f64::NEG_INFINITY, f64::max);

@@ -154,5 +154,17 @@ pub(super) fn validate(samples: &[&Image], p: &QuiltParams, o: &QuiltOptions) ->
             check_finite_image(Input::AllowedPositions, m)?;
         }
     }
+    if o.ignore.len() > samples.len() {
+        return Err(QuiltError::SampleCount { got: o.ignore.len(), expected: "one mask per sample at most" });
+    }
+    for (m, s) in o.ignore.iter().zip(samples) {
+        if let Some(m) = m {
+            check_size(Input::IgnoreMask, m, s.width, s.height)?;
+            if m.channels != 1 {
+                return Err(QuiltError::ChannelMismatch { what: Input::IgnoreMask, expected: 1, got: m.channels });
+            }
+            check_finite_image(Input::IgnoreMask, m)?;
+        }
+    }
     Ok(())
 }
