@@ -9,6 +9,7 @@ pub mod metrics;
 pub mod progress;
 pub mod quilt;
 pub mod relight;
+pub mod render;
 pub mod rng;
 pub mod structure;
 pub mod surface;
