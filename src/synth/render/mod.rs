@@ -22,6 +22,9 @@ pub mod material;
 pub mod shadow;
 pub mod tiles;
 
+#[cfg(test)]
+mod tests;
+
 
 pub use camera::{Camera, Projection, ProjectionKind};
 pub use material::{sample_rgb, sample_wrap, Albedo, DirectionalLight, Fragment, LightSample, Material};
