@@ -39,9 +39,8 @@ fn displaced_grid(n: usize) -> TriMesh {
 fn bench(c: &mut Criterion) {
     let mesh = displaced_grid(709);
     assert!(mesh.triangles.len() > 1_000_000);
-    let texture = Image::from_fn(1024, 1024, 3, |x, y, ch| {
-        0.3 + 0.2 * ((x / 32 + y / 32) % 2) as f32 + 0.1 * ch as f32
-    });
+    let texture =
+        Image::from_fn(1024, 1024, 3, |x, y, ch| 0.3 + 0.2 * ((x / 32 + y / 32) % 2) as f32 + 0.1 * ch as f32);
     let material = Albedo { texture: &texture, normal_map: None };
     let camera = Camera::framing(mesh.bounds().unwrap(), -90.0, 55.0, 35.0);
     let lights = [DirectionalLight::white(Vec3::new(0.5, -0.3, 0.8))];

@@ -70,8 +70,7 @@ fn written_glb_passes_the_khronos_validator() {
         return;
     };
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/validate-gltf.mjs");
-    let out = match Command::new("node").arg(&script).arg(&a).arg(&b).env("TESSERA_GLTF_VALIDATOR", &modules).output()
-    {
+    let out = match Command::new("node").arg(&script).arg(&a).arg(&b).env("TESSERA_GLTF_VALIDATOR", &modules).output() {
         Ok(out) => out,
         Err(e) => {
             eprintln!("skipped: cannot run node ({e})");

@@ -238,7 +238,8 @@ mod tests {
         assert_eq!(indices["count"], 6);
         assert_eq!(indices["componentType"], UNSIGNED_INT);
         for view in doc["bufferViews"].as_array().unwrap() {
-            let (off, len) = (view["byteOffset"].as_u64().unwrap() as usize, view["byteLength"].as_u64().unwrap() as usize);
+            let (off, len) =
+                (view["byteOffset"].as_u64().unwrap() as usize, view["byteLength"].as_u64().unwrap() as usize);
             assert_eq!(off % 4, 0);
             assert!(off + len <= bin.len());
         }

@@ -107,36 +107,47 @@ impl Material for Albedo<'_> {
     }
 }
 
-/// Bilinear, wrapping lookup of channel `c` at `uv` (v up: texel row `(1 − v) · height`).
-pub fn sample_wrap(img: &Image, uv: Vec2, c: usize) -> f32 {
+/// The four texels and weights of a bilinear, wrapping lookup at `uv` (v up: texel row
+/// `(1 − v) · height`): plane offsets `[top-left, top-right, bottom-left, bottom-right]` and
+/// `(tx, ty)`.
+#[inline]
+fn taps(img: &Image, uv: Vec2) -> Option<([usize; 4], f32, f32)> {
     let (w, h) = (img.width, img.height);
     if w == 0 || h == 0 {
-        return 0.0;
+        return None;
     }
     let x = uv.x * w as f32 - 0.5;
     let y = (1.0 - uv.y) * h as f32 - 0.5;
     if !(x.is_finite() && y.is_finite()) {
-        return 0.0;
+        return None;
     }
     let (fx, fy) = (x.floor(), y.floor());
-    let (tx, ty) = (x - fx, y - fy);
     let x0 = (fx as i64).rem_euclid(w as i64) as usize;
     let y0 = (fy as i64).rem_euclid(h as i64) as usize;
     let (x1, y1) = ((x0 + 1) % w, (y0 + 1) % h);
-    let p = img.plane(c);
-    let top = p[y0 * w + x0] * (1.0 - tx) + p[y0 * w + x1] * tx;
-    let bottom = p[y1 * w + x0] * (1.0 - tx) + p[y1 * w + x1] * tx;
+    Some(([y0 * w + x0, y0 * w + x1, y1 * w + x0, y1 * w + x1], x - fx, y - fy))
+}
+
+#[inline]
+fn blend(p: &[f32], [a, b, c, d]: [usize; 4], tx: f32, ty: f32) -> f32 {
+    let top = p[a] * (1.0 - tx) + p[b] * tx;
+    let bottom = p[c] * (1.0 - tx) + p[d] * tx;
     top * (1.0 - ty) + bottom * ty
+}
+
+/// Bilinear, wrapping lookup of channel `c` at `uv` (v up: texel row `(1 − v) · height`); 0 for
+/// an empty image or a non-finite `uv`.
+pub fn sample_wrap(img: &Image, uv: Vec2, c: usize) -> f32 {
+    taps(img, uv).map_or(0.0, |(t, tx, ty)| blend(img.plane(c), t, tx, ty))
 }
 
 /// The first three channels at `uv` ([`sample_wrap`]); a one- or two-channel image repeats its
 /// first channel.
 pub fn sample_rgb(img: &Image, uv: Vec2) -> [f32; 3] {
-    if img.channels >= 3 {
-        [sample_wrap(img, uv, 0), sample_wrap(img, uv, 1), sample_wrap(img, uv, 2)]
-    } else if img.channels >= 1 {
-        [sample_wrap(img, uv, 0); 3]
-    } else {
-        [0.0; 3]
+    let Some((t, tx, ty)) = taps(img, uv) else { return [0.0; 3] };
+    match img.channels {
+        0 => [0.0; 3],
+        1 | 2 => [blend(img.plane(0), t, tx, ty); 3],
+        _ => std::array::from_fn(|c| blend(img.plane(c), t, tx, ty)),
     }
 }

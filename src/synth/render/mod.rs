@@ -25,7 +25,6 @@ pub mod tiles;
 #[cfg(test)]
 mod tests;
 
-
 pub use camera::{Camera, Projection, ProjectionKind};
 pub use material::{sample_rgb, sample_wrap, Albedo, DirectionalLight, Fragment, LightSample, Material};
 pub use shadow::ShadowMap;

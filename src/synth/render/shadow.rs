@@ -33,8 +33,7 @@ impl ShadowMap {
         let projection = Projection::fitted_ortho(center, radius * 1.01, -to_light);
         let clip: Vec<Vec4> = positions.par_iter().map(|&p| projection.clip(p)).collect();
         let tiles = rasterize(size, size, &clip, triangles, f32::NEG_INFINITY, Cull::None, |tile| {
-            let d: Vec<f32> =
-                tile.keys.iter().map(|&k| if k == EMPTY { 0.0 } else { key_nearness(k) }).collect();
+            let d: Vec<f32> = tile.keys.iter().map(|&k| if k == EMPTY { 0.0 } else { key_nearness(k) }).collect();
             (tile.x0, tile.y0, tile.width, d)
         });
         let mut nearness = vec![0.0; size * size];

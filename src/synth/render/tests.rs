@@ -271,7 +271,7 @@ fn tangent_space_light_of_a_plane_with_uv_xy_is_the_world_light() {
     let l = Vec3::new(0.3, -0.5, 0.8).normalize();
     let probe = Probe(|f| f.lights[0].tangent_direction.to_array());
     let camera = Camera::perspective(Vec3::new(0.3, -0.4, 3.0), Vec3::ZERO, Vec3::Y, 50.0);
-    let tangents = vec![Vec4::new(1.0, 0.0, 0.0, 1.0); 4];
+    let tangents = [Vec4::new(1.0, 0.0, 0.0, 1.0); 4];
     for t in [None, Some(&tangents[..])] {
         let img = render(&mesh, t, &probe, &camera, &[DirectionalLight::white(l)], &opts(40, 40));
         let (x, y) = (20, 20);
@@ -309,7 +309,11 @@ fn triangles_crossing_the_near_plane_are_clipped() {
         let n = 41;
         for j in 0..n {
             for i in 0..n {
-                let p = Vec3::new(-100.0 + 200.0 * i as f32 / (n - 1) as f32, -100.0 + 200.0 * j as f32 / (n - 1) as f32, 0.0);
+                let p = Vec3::new(
+                    -100.0 + 200.0 * i as f32 / (n - 1) as f32,
+                    -100.0 + 200.0 * j as f32 / (n - 1) as f32,
+                    0.0,
+                );
                 m.positions.push(p);
                 m.normals.push(Vec3::Z);
                 m.uvs.push(Vec2::ZERO);

@@ -77,6 +77,10 @@ fn make_key(d: f32, id: u32) -> u64 {
     ((!bits as u64) << 32) | id as u64
 }
 
+/// One binning chunk's result: per tile, the entries in triangle order; and the chunk's clipped
+/// sub-triangles with the index of the triangle each came from.
+type Bins = (Vec<Vec<u32>>, Vec<(u32, [ScreenVertex; 3])>);
+
 /// Everything binning and rasterising share.
 struct Setup {
     width: usize,
@@ -135,14 +139,8 @@ impl Setup {
     fn clip(&self, idx: [u32; 3], c: [Vec4; 3]) -> Vec<[ScreenVertex; 3]> {
         let g = self.guard;
         let near = self.near_w.max(f32::MIN_POSITIVE);
-        let planes: [&dyn Fn(Vec4) -> f32; 6] = [
-            &|v| v.w - near,
-            &|v| g * v.w - v.x,
-            &|v| g * v.w + v.x,
-            &|v| g * v.w - v.y,
-            &|v| g * v.w + v.y,
-            &|v| v.z,
-        ];
+        let planes: [&dyn Fn(Vec4) -> f32; 6] =
+            [&|v| v.w - near, &|v| g * v.w - v.x, &|v| g * v.w + v.x, &|v| g * v.w - v.y, &|v| g * v.w + v.y, &|v| v.z];
         // Polygon corners with a sort key per corner: (lowest, highest) original indices of the
         // edge it lies on, so an intersection is computed the same way from either side.
         let mut poly: Vec<(Vec4, (u32, u32))> = (0..3).map(|i| (c[i], (idx[i], idx[i]))).collect();
@@ -200,15 +198,16 @@ pub fn rasterize<R: Send>(
         near_w,
         cull,
     };
-    let screen: Vec<ScreenVertex> = clip
+    // Vertices outside the clipping planes keep the default position and are never read: their
+    // triangles go through `Setup::clip`.
+    let (screen, inside): (Vec<ScreenVertex>, Vec<bool>) = clip
         .par_iter()
-        .map(|&c| if setup.inside(c) { setup.to_screen(c) } else { ScreenVertex::default() })
-        .collect();
-    let inside: Vec<bool> = clip.par_iter().map(|&c| setup.inside(c)).collect();
+        .map(|&c| if setup.inside(c) { (setup.to_screen(c), true) } else { (ScreenVertex::default(), false) })
+        .unzip();
 
     // Binning: per chunk, a list per tile in triangle order, and the chunk's clipped pieces.
     let n_tiles = tiles_x * tiles_y;
-    let chunks: Vec<(Vec<Vec<u32>>, Vec<(u32, [ScreenVertex; 3])>)> = triangles
+    let chunks: Vec<Bins> = triangles
         .par_chunks(CHUNK)
         .enumerate()
         .map(|(ci, chunk)| {
