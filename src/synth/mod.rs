@@ -10,6 +10,7 @@ pub mod progress;
 pub mod quilt;
 pub mod relief;
 pub mod relight;
+pub mod render;
 pub mod rng;
 pub mod structure;
 pub mod surface;

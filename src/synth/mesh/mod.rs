@@ -9,6 +9,10 @@
 //! - [`TriMesh`] is indexed triangles with one position, normal and UV per vertex: what a renderer
 //!   draws and what glTF stores.
 
+// `gltf` uses `TriMesh` from here, so its items are not re-exported here (that would make the
+// two files import each other): use `mesh::gltf::{write_glb, GlbTextures}`.
+pub mod gltf;
+
 use glam::{Vec2, Vec3};
 
 /// A polygon mesh with texture coordinates. Positions and UVs are indexed separately (as in OBJ),
