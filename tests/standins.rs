@@ -4,12 +4,16 @@
 //! rendered by `synth::relight::fixtures` (tessera's stand-ins for the PhoTex captures,
 //! [references: dong §3.3]). This test regenerates them and checks that the committed files
 //! match, so samples, generators and ground truth never drift apart.
+//! The relief stand-ins in `samples/relief/` ([references: frasson §5.3.3]: the Biot wall, the
+//! door, the chip, the stone block, the metal plate) are photos with their true height and the
+//! patches cut for them, from `synth::relief::fixtures`.
 //! Set `TESSERA_REGENERATE=1` to rewrite the files instead.
 
 use std::path::PathBuf;
 
 use tessera::raster::{self, Image};
 use tessera::synth::relight::fixtures::{self as photometric, Scenario};
+use tessera::synth::relief::fixtures::{self as relief, Relief};
 use tessera::synth::relight::Light;
 use tessera::synth::structure::fixtures::standins::{self as s, StandIn};
 use tessera::synth::structure::{format, render};
@@ -142,4 +146,33 @@ fn committed_captures_match_their_generators() {
         }
         sync(&dir, files);
     }
+}
+
+/// A relief stand-in as files: `NAME.png` (8-bit sRGB colour), `NAME_height.png` (16-bit
+/// height: codes over full scale, as the `height` layer reads them).
+fn relief_files(name: &str, r: &Relief) -> Vec<(String, Vec<u8>)> {
+    let colour = raster::color::image_linear_to_srgb(&r.colour);
+    vec![
+        (format!("{name}.png"), raster::io::encode_png(&colour, 8).expect("png")),
+        (format!("{name}_height.png"), raster::io::encode_png(&r.height, 16).expect("png")),
+    ]
+}
+
+#[test]
+fn committed_relief_standins_match_their_generators() {
+    let mut files = Vec::new();
+    files.extend(relief_files("brick_foliage/wall", &relief::brick_foliage(11)));
+    let [bricks, foliage] = relief::brick_foliage_patches(12);
+    files.extend(relief_files("brick_foliage/patch_bricks", &bricks));
+    files.extend(relief_files("brick_foliage/patch_foliage", &foliage));
+    files.extend(relief_files("door/door", &relief::door(160, 160, 40, 21)));
+    files.extend(relief_files("door/patch_wood", &relief::door(100, 100, 0, 22)));
+    files.extend(relief_files("door/patch_studs", &relief::door(100, 100, 24, 23)));
+    files.extend(relief_files("block/rock", &relief::block(128, 128, 41)));
+    files.extend(relief_files("block/patch_rock", &relief::block(100, 100, 42)));
+    files.extend(relief_files("plate/plate", &relief::plate(160, 160, 8, 51)));
+    files.extend(relief_files("plate/patch_plate", &relief::plate(100, 100, 4, 52)));
+    files.extend(relief_files("chip/chip", &relief::chip(160, 160, 6, 31)));
+    files.extend(relief_files("chip/patch_chip", &relief::chip(100, 100, 2, 32)));
+    sync(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("samples/relief"), files);
 }

@@ -51,6 +51,10 @@ impl Project {
         std::fs::write(p, bytes).expect("write");
     }
 
+    pub fn read_text(&self, rel: &str) -> String {
+        String::from_utf8(self.read(rel)).expect("utf-8")
+    }
+
     pub fn read(&self, rel: &str) -> Vec<u8> {
         std::fs::read(self.path(rel)).unwrap_or_else(|e| panic!("read {rel}: {e}"))
     }
