@@ -51,7 +51,10 @@ fn f31_through_the_cli_puts_mortar_down_and_foliage_up() {
 fn the_depth_blur_reruns_only_the_depth() {
     let p = project(&relief(""));
     p.tessera(&["build", "scene.tess"]).ok();
-    p.write("scene.tess", &format!("scene {{\n  seed = 4\n  size = 256 x 192\n}}\n\n{}", relief("  depth_blur = 2 px\n")));
+    p.write(
+        "scene.tess",
+        &format!("scene {{\n  seed = 4\n  size = 256 x 192\n}}\n\n{}", relief("  depth_blur = 2 px\n")),
+    );
     let (run, stages) = p.build_report(&["scene.tess"]);
     run.ok();
     let ran = common::ran(&stages);

@@ -12,8 +12,8 @@
 use std::path::PathBuf;
 
 use tessera::raster::{self, Image};
-use tessera::synth::relight::fixtures::{self as photometric, Scenario};
 use tessera::synth::relief::fixtures::{self as relief, Relief};
+use tessera::synth::relight::fixtures::{self as photometric, Scenario};
 use tessera::synth::relight::Light;
 use tessera::synth::structure::fixtures::standins::{self as s, StandIn};
 use tessera::synth::structure::{format, render};
@@ -175,4 +175,41 @@ fn committed_relief_standins_match_their_generators() {
     files.extend(relief_files("chip/chip", &relief::chip(160, 160, 6, 31)));
     files.extend(relief_files("chip/patch_chip", &relief::chip(100, 100, 2, 32)));
     sync(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("samples/relief"), files);
+}
+
+/// A column of twelve sides and a cap, 2 units high and of radius 0.5, for the relief scenes:
+/// side `k` takes the texture's columns `k/12 … (k+1)/12` below v = 0.8, the cap a disc above.
+fn column_obj() -> String {
+    let (sides, r, h) = (12usize, 0.5f64, 2.0f64);
+    let mut s = String::from("# tessera stand-in: a twelve-sided column with a cap (y up)\n");
+    for y in [0.0, h] {
+        for k in 0..sides {
+            let t = std::f64::consts::TAU * k as f64 / sides as f64;
+            s += &format!("v {:.6} {:.6} {:.6}\n", r * t.sin(), y, r * t.cos());
+        }
+    }
+    for k in 0..=sides {
+        for v in [0.0, 0.8] {
+            s += &format!("vt {:.6} {:.6}\n", k as f64 / sides as f64, v);
+        }
+    }
+    for k in 0..sides {
+        let t = std::f64::consts::TAU * k as f64 / sides as f64;
+        s += &format!("vt {:.6} {:.6}\n", 0.5 + 0.07 * t.sin(), 0.9 - 0.09 * t.cos());
+    }
+    // Positions: bottom ring 1..=12, top ring 13..=24. UVs: (k, bottom) = 2k + 1, (k, top) = 2k + 2.
+    for k in 0..sides {
+        let (b0, b1, t0, t1) = (k + 1, (k + 1) % sides + 1, k + 1 + sides, (k + 1) % sides + 1 + sides);
+        let (u0b, u1b, u1t, u0t) = (2 * k + 1, 2 * (k + 1) + 1, 2 * (k + 1) + 2, 2 * k + 2);
+        s += &format!("f {b0}/{u0b} {b1}/{u1b} {t1}/{u1t} {t0}/{u0t}\n");
+    }
+    let cap: Vec<String> = (0..sides).map(|k| format!("{}/{}", k + 1 + sides, 2 * (sides + 1) + k + 1)).collect();
+    s += &format!("f {}\n", cap.join(" "));
+    s
+}
+
+#[test]
+fn committed_meshes_match_their_generators() {
+    let files = vec![("column.obj".to_string(), column_obj().into_bytes())];
+    sync(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("samples/meshes"), files);
 }

@@ -8,6 +8,7 @@ mod artifact;
 mod layer;
 mod library;
 mod map;
+mod model;
 mod output;
 mod representation;
 mod sample;
@@ -63,6 +64,7 @@ pub static KINDS: &[&dyn Kind] = &[
     &appearance::Appearance,
     &layer::Layer,
     &library::Library,
+    &model::ModelKind,
     &output::Output,
 ];
 

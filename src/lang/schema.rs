@@ -73,6 +73,8 @@ pub enum Value {
     /// A patch: a colour image with a height layer of its size (and a mask), Frasson's unit of
     /// depth synthesis.
     Patch,
+    /// A relieved mesh: displaced geometry and its texture.
+    Model,
 }
 
 impl Value {
@@ -86,6 +88,7 @@ impl Value {
             Value::Library => "a library",
             Value::Capture => "a photometric capture",
             Value::Patch => "a patch (a sample with a `height` layer)",
+            Value::Model => "a model",
         }
     }
 }

@@ -89,10 +89,15 @@ impl Project {
                 rows.push(row);
                 continue;
             };
-            if o.format.is_text() {
-                // Numbers in meshes and reports: rounded to 1e-6 when written.
+            if o.format.is_text() || o.format == OutputFormat::Glb {
+                // Numbers in meshes and reports: rounded to 1e-6 when written. A glTF binary is
+                // compared as the numbers it holds (its JSON, accessors and texture codes).
                 let tol = o.tolerance.unwrap_or(TEXT_TOLERANCE);
-                let (actual, expected) = (String::from_utf8_lossy(&bytes.0), String::from_utf8_lossy(&golden_bytes));
+                let text = |b: &[u8]| match o.format {
+                    OutputFormat::Glb => glb_text(b).unwrap_or_else(|e| format!("undecodable glb: {e}")),
+                    _ => String::from_utf8_lossy(b).into_owned(),
+                };
+                let (actual, expected) = (text(&bytes.0), text(&golden_bytes));
                 let cmp = golden::compare_text(&actual, &expected, tol);
                 row.tolerance = tol;
                 row.max_abs = cmp.max_abs as f32;
@@ -178,6 +183,54 @@ fn ptm_planes(bytes: &[u8]) -> Result<raster::Image, String> {
     let data: Vec<f32> = ptm.coefficients.iter().chain(ptm.colour.iter().flatten()).map(|&v| v as f32).collect();
     let channels = data.len().checked_div(m).unwrap_or(0);
     Ok(raster::Image { width: ptm.width, height: ptm.height, channels, data })
+}
+
+/// A glTF binary as text: its JSON chunk, then every accessor's values, then every image's
+/// 8-bit codes, so the golden check compares numbers within its tolerance.
+fn glb_text(bytes: &[u8]) -> Result<String, String> {
+    let u32_at = |at: usize| -> Result<usize, String> {
+        let b = bytes.get(at..at + 4).ok_or("truncated")?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    };
+    if bytes.get(0..4) != Some(b"glTF") {
+        return Err("not a glTF binary".into());
+    }
+    let json_len = u32_at(12)?;
+    let json = bytes.get(20..20 + json_len).ok_or("truncated JSON chunk")?;
+    let bin_at = 20 + json_len;
+    let bin = match (u32_at(bin_at), bytes.get(bin_at + 8..)) {
+        (Ok(len), Some(rest)) => rest.get(..len).ok_or("truncated BIN chunk")?,
+        _ => &[],
+    };
+    let doc: serde_json::Value = serde_json::from_slice(json).map_err(|e| e.to_string())?;
+    let mut out = String::from_utf8_lossy(json).into_owned();
+    let view = |i: &serde_json::Value| -> Option<&[u8]> {
+        let v = &doc["bufferViews"][i.as_u64()? as usize];
+        let at = v["byteOffset"].as_u64().unwrap_or(0) as usize;
+        bin.get(at..at + v["byteLength"].as_u64()? as usize)
+    };
+    for a in doc["accessors"].as_array().into_iter().flatten() {
+        let Some(data) = view(&a["bufferView"]) else { continue };
+        let data = &data[a["byteOffset"].as_u64().unwrap_or(0) as usize..];
+        out.push('\n');
+        for chunk in data.chunks_exact(4) {
+            let raw = [chunk[0], chunk[1], chunk[2], chunk[3]];
+            let text = match a["componentType"].as_u64() {
+                Some(5126) => format!("{} ", f32::from_le_bytes(raw)),
+                _ => format!("{} ", u32::from_le_bytes(raw)),
+            };
+            out.push_str(&text);
+        }
+    }
+    for img in doc["images"].as_array().into_iter().flatten() {
+        let Some(png) = view(&img["bufferView"]) else { continue };
+        let image = raster::io::decode(png).map_err(|e| e.to_string())?;
+        out.push_str(&format!("\nimage {} {} {}\n", image.width, image.height, image.channels));
+        for v in &image.data {
+            out.push_str(&format!("{} ", (v * 255.0).round()));
+        }
+    }
+    Ok(out)
 }
 
 /// Whole steps of a `bits`-bit code within `fraction` of the full range, rounded down (with

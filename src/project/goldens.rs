@@ -11,7 +11,7 @@ use crate::lang::diag::suggest;
 
 /// Extensions of the files an output can be (PNG, EXR, JSON, SVG, PTM): nothing else below a
 /// golden directory is ever taken for a golden.
-const GOLDEN_EXTENSIONS: [&str; 5] = ["png", "exr", "json", "svg", "ptm"];
+const GOLDEN_EXTENSIONS: [&str; 7] = ["png", "exr", "json", "svg", "ptm", "obj", "glb"];
 
 impl Project {
     /// Writes the current outputs named by `names` (every output when `None`) as goldens, as

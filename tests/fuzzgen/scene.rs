@@ -107,8 +107,9 @@ pub fn generate(rng: &mut Rng) -> Generated {
             // can fail.
             match spec.name {
                 "scene" | "sample" | "surface" => 1,
-                // Needs a photometric capture, which these samples are not.
-                "representation" => 0,
+                // Needs a photometric capture, which these samples are not; needs a mesh
+                // surface and a relief layer, which the relief tests build.
+                "representation" | "model" => 0,
                 "output" => 1 + rng.below(2),
                 "map" => 1 + rng.below(2),
                 _ => usize::from(rng.chance(0.3)),
@@ -235,8 +236,14 @@ fn props(rng: &mut Rng, specs: &[PropSpec], names: &Names, depth: usize, out: &m
                 // Capture properties make a different sample (a photometric set); the
                 // capture tests build those.
                 "images" | "lights" | "capture" | "bit_depth" | "transfer" => false,
+                // Patch layers must match the image's size, which the pool's files rarely do.
+                "height" | "mask" => false,
                 _ => present,
             }
+        } else if names.noise == 0.0 && matches!((kind, p.name), ("layer", "relief") | ("surface", "mesh")) {
+            // A relief layer needs patches and a mesh surface an OBJ file: the relief tests
+            // build those.
+            false
         } else if names.noise == 0.0 && kind == "output" && matches!(p.name, "view" | "format" | "light" | "normals") {
             false
         } else {

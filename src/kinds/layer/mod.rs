@@ -113,8 +113,7 @@ impl super::Kind for Layer {
             let mut inputs = Inputs::new();
             let depth = inputs.add(depth);
             let format = out.format;
-            let stage =
-                FnStage::keyed("output.image", 1, (depth, format), |cx, &(d, f)| encode_image(&cx.get(d), f));
+            let stage = FnStage::keyed("output.image", 1, (depth, format), |cx, &(d, f)| encode_image(&cx.get(d), f));
             let node = p.add(format!("output {}", out.decl.name), stage, inputs, vec![]);
             return Ok(Some(super::ViewNode { node, exact: false }));
         }

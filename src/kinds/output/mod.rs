@@ -3,7 +3,7 @@
 
 use super::{Bytes, ColorSpace, FnStage, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, NodeId, StageError};
-use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Ty, Unit, Value, POSITIVE, UNIT};
+use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value, ANY, POSITIVE, UNIT};
 use crate::lang::source::Span;
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::{self, Image};
@@ -20,7 +20,7 @@ pub static SPEC: KindSpec = KindSpec {
     props: &[
         PropSpec {
             name: "from",
-            ty: Ty::Ref(&[Value::Map, Value::Image, Value::Plane, Value::Structure]),
+            ty: Ty::Ref(&[Value::Map, Value::Image, Value::Plane, Value::Structure, Value::Model]),
             default: Default::Required,
             doc: "What to write. Maps are written as data; 2-channel orientation fields as RGB (x, y → R, G); samples and layers in sRGB (EXR: linear); surfaces as their occupancy; structures as `view` says. A `.json` output of a sample chosen by `similar(...)` writes the ranking.",
         },
@@ -35,6 +35,30 @@ pub static SPEC: KindSpec = KindSpec {
             ty: Ty::Source { calls: crate::kinds::sample::capture::LIGHT, refs: &[] },
             default: Default::Absent,
             doc: "For relightable sources: the light of the relit image. Default `light(tilt = 0 deg, slant = 45 deg)`.",
+        },
+        PropSpec {
+            name: "azimuth",
+            ty: Ty::Number(Unit::Angle, ANY),
+            default: Default::Text("30 deg"),
+            doc: "Renders of a model: the camera's direction about the vertical (+y), from +z towards +x. The camera frames the whole model.",
+        },
+        PropSpec {
+            name: "elevation",
+            ty: Ty::Number(Unit::Angle, Range { min: -std::f64::consts::FRAC_PI_2, max: std::f64::consts::FRAC_PI_2 }),
+            default: Default::Text("20 deg"),
+            doc: "Renders of a model: the camera's height above the horizontal, −90° to 90°.",
+        },
+        PropSpec {
+            name: "resolution",
+            ty: Ty::Size,
+            default: Default::Text("512 x 512"),
+            doc: "Renders of a model: the image size. The model's `light` is a distant light, its slant from the vertical and its tilt about it like `azimuth`.",
+        },
+        PropSpec {
+            name: "shadows",
+            ty: Ty::Bool,
+            default: Default::Text("false"),
+            doc: "Renders of a model: cast shadows (a shadow map per light).",
         },
         PropSpec {
             name: "normals",
@@ -146,12 +170,16 @@ pub enum OutputFormat {
     Svg,
     /// A PTM 1.2 file (relightable surfaces fitted by PTM).
     Ptm(PtmFormat),
+    /// Wavefront OBJ text (models).
+    Obj,
+    /// glTF 2.0 binary (models).
+    Glb,
 }
 
 impl OutputFormat {
     /// Text formats are compared number by number, not pixel by pixel.
     pub fn is_text(self) -> bool {
-        matches!(self, OutputFormat::Json | OutputFormat::Svg)
+        matches!(self, OutputFormat::Json | OutputFormat::Svg | OutputFormat::Obj)
     }
 }
 
@@ -216,6 +244,8 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
         (Format::Auto, "svg") => OutputFormat::Svg,
         (Format::Auto | Format::PtmLrgb, "ptm") => OutputFormat::Ptm(PtmFormat::Lrgb),
         (Format::PtmRgb, "ptm") => OutputFormat::Ptm(PtmFormat::Rgb),
+        (Format::Auto, "obj") => OutputFormat::Obj,
+        (Format::Auto, "glb") => OutputFormat::Glb,
         (f, e) => {
             let span = d.props.span("format").unwrap_or(d.name_span);
             return Err(Diagnostic::error(if f == Format::Auto {
@@ -225,7 +255,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
             })
             .with_code("tessera::output_format")
             .with_label(span, "here")
-            .with_help("outputs are `.png` (8- or 16-bit), `.exr`, `.json`, `.svg` or `.ptm` files"));
+            .with_help("outputs are `.png` (8- or 16-bit), `.exr`, `.json`, `.svg`, `.ptm`, `.obj` or `.glb` files"));
         }
     };
     let name = crate::graph::files::normal_relative(&d.name).map_err(|problem| {
@@ -304,7 +334,7 @@ pub(crate) fn encode_image(img: &Image, format: OutputFormat) -> Result<Bytes, S
         OutputFormat::Png8 => raster::io::encode_png(img, 8),
         OutputFormat::Png16 => raster::io::encode_png(img, 16),
         OutputFormat::Exr => raster::io::encode_exr(img),
-        OutputFormat::Json | OutputFormat::Svg | OutputFormat::Ptm(_) => {
+        OutputFormat::Json | OutputFormat::Svg | OutputFormat::Ptm(_) | OutputFormat::Obj | OutputFormat::Glb => {
             return Err(StageError::new("this output is not an image file: name it `.png` or `.exr`"))
         }
     }

@@ -6,12 +6,26 @@
 //! - [`Mesh`] keeps the author's **polygons** (a quad stays a quad): displacement subdivides each
 //!   coarse face on its own grid, and seams are the borders between coarse faces
 //!   ([references: frasson §5.3.2]).
+//!
+//! Around them: [`obj`] reads and writes OBJ text, [`check`] validates a mesh (every problem with
+//! its face and OBJ line), [`frames`] gives per-vertex tangent frames and the triangulation,
+//! [`displace`] and [`seam`] relieve a mesh and close its seams, [`gltf`] writes glTF binaries.
 //! - [`TriMesh`] is indexed triangles with one position, normal and UV per vertex: what a renderer
 //!   draws and what glTF stores.
 
 // `gltf` uses `TriMesh` from here, so its items are not re-exported here (that would make the
 // two files import each other): use `mesh::gltf::{write_glb, GlbTextures}`.
+pub mod check;
+pub mod displace;
+pub mod frames;
 pub mod gltf;
+pub mod obj;
+pub mod seam;
+pub mod seam_texture;
+
+pub use check::{problems, validate, validate_with_lines, FaceAt, Limits, MeshError};
+pub use frames::{face_triangles, position_normals, tangent_frames, triangulate, Frame, Frames};
+pub use obj::{load_obj, read_obj, read_obj_with_lines, write_obj, write_polygon_obj, ObjMesh};
 
 use glam::{Vec2, Vec3};
 

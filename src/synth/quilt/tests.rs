@@ -832,7 +832,10 @@ fn masked_pixels_weigh_nothing_and_mostly_masked_blocks_are_never_taken() {
                     .count();
                 assert!(2 * masked <= 256, "a block {masked}/256 masked was taken");
             }
-            (r.blocks.iter().map(|b| (b.sx, b.sy)).collect::<Vec<_>>(), r.blocks.iter().map(|b| b.error).collect::<Vec<_>>())
+            (
+                r.blocks.iter().map(|b| (b.sx, b.sy)).collect::<Vec<_>>(),
+                r.blocks.iter().map(|b| b.error).collect::<Vec<_>>(),
+            )
         };
         // What lies under the mask never changes a choice or an error (it is pasted, but neither
         // matched on the sample side nor, once pasted, in later overlaps).

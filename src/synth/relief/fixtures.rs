@@ -82,9 +82,7 @@ fn build(w: usize, h: usize, f: impl Fn(usize, usize) -> ([f32; 3], f32, u8)) ->
 
 /// Disc centres and radii, drawn from the seed.
 fn discs(w: usize, h: usize, count: usize, radius: (f64, f64), rng: &mut Rng) -> Vec<(f64, f64, f64)> {
-    (0..count)
-        .map(|_| (rng.range(0.0, w as f64), rng.range(0.0, h as f64), rng.range(radius.0, radius.1)))
-        .collect()
+    (0..count).map(|_| (rng.range(0.0, w as f64), rng.range(0.0, h as f64), rng.range(radius.0, radius.1))).collect()
 }
 
 /// Parameters of the brick wall.
@@ -163,8 +161,12 @@ pub fn brick_foliage(seed: u64) -> Relief {
 /// The two patches of the Biot wall: bricks with dark mortar, and foliage over bricks.
 pub fn brick_foliage_patches(seed: u64) -> [Relief; 2] {
     let bricks = brick_wall(100, 100, &BrickParams::default(), seed ^ 0x100);
-    let foliage =
-        brick_wall(100, 100, &BrickParams { foliage: vec![(50.0, 50.0, 44.0)], ..BrickParams::default() }, seed ^ 0x200);
+    let foliage = brick_wall(
+        100,
+        100,
+        &BrickParams { foliage: vec![(50.0, 50.0, 44.0)], ..BrickParams::default() },
+        seed ^ 0x200,
+    );
     [bricks, foliage]
 }
 
@@ -177,8 +179,8 @@ pub fn door(w: usize, h: usize, studs: usize, seed: u64) -> Relief {
     build(w, h, |x, y| {
         let n = grain.get(x, y, 0) - 0.5;
         let s = streak.get(x, (y / 12).min(streak.height - 1), 0) - 0.5;
-        if studs > 0 {
-            let (cx, cy) = ((x / studs) * studs + studs / 2, (y / studs) * studs + studs / 2);
+        if let (Some(i), Some(j)) = (x.checked_div(studs), y.checked_div(studs)) {
+            let (cx, cy) = (i * studs + studs / 2, j * studs + studs / 2);
             let d = ((x as f32 - cx as f32).powi(2) + (y as f32 - cy as f32).powi(2)).sqrt();
             if d < 5.0 {
                 let dome = 1.0 - (d / 5.0).powi(2);
@@ -194,8 +196,14 @@ pub fn door(w: usize, h: usize, studs: usize, seed: u64) -> Relief {
 
 /// A chip: blobs of `classes` colours over a grey base, each class at its own depth.
 pub fn chip(w: usize, h: usize, classes: usize, seed: u64) -> Relief {
-    const TINTS: [[f32; 3]; 6] =
-        [[45.0, 55.0, 40.0], [40.0, 10.0, -50.0], [85.0, -5.0, 75.0], [50.0, -45.0, 35.0], [92.0, 0.0, 2.0], [30.0, 40.0, -30.0]];
+    const TINTS: [[f32; 3]; 6] = [
+        [45.0, 55.0, 40.0],
+        [40.0, 10.0, -50.0],
+        [85.0, -5.0, 75.0],
+        [50.0, -45.0, 35.0],
+        [92.0, 0.0, 2.0],
+        [30.0, 40.0, -30.0],
+    ];
     let mut rng = Rng::new(seed);
     let blobs: Vec<(f64, f64, f64, usize)> = discs(w, h, 6 * classes, (8.0, 16.0), &mut rng)
         .into_iter()
@@ -231,7 +239,9 @@ pub fn block(w: usize, h: usize, seed: u64) -> Relief {
 pub fn plate(w: usize, h: usize, bumps: usize, seed: u64) -> Relief {
     let mut rng = Rng::new(seed);
     let almonds: Vec<(f64, f64, f64)> = (0..bumps)
-        .map(|_| (rng.range(12.0, w as f64 - 12.0), rng.range(12.0, h as f64 - 12.0), rng.range(0.0, std::f64::consts::PI)))
+        .map(|_| {
+            (rng.range(12.0, w as f64 - 12.0), rng.range(12.0, h as f64 - 12.0), rng.range(0.0, std::f64::consts::PI))
+        })
         .collect();
     let grain = noise(w, h, seed ^ 9, 2.0, 2);
     build(w, h, |x, y| {

@@ -149,9 +149,9 @@ pub(super) fn run(
                 let mut sat = vec![0u32; (w + 1) * (h + 1)];
                 for y in 0..h {
                     for x in 0..w {
-                        sat[(y + 1) * (w + 1) + x + 1] = u32::from(bad(y * w + x)) + sat[y * (w + 1) + x + 1]
-                            + sat[(y + 1) * (w + 1) + x]
-                            - sat[y * (w + 1) + x];
+                        sat[(y + 1) * (w + 1) + x + 1] =
+                            u32::from(bad(y * w + x)) + sat[y * (w + 1) + x + 1] + sat[(y + 1) * (w + 1) + x]
+                                - sat[y * (w + 1) + x];
                     }
                 }
                 sat
