@@ -121,3 +121,28 @@ fn fuzz_sample() {
         assert!(summary.findings.is_empty(), "fuzz findings:\n{}", summary.report());
     }
 }
+
+/// For tuning the generators: the first diagnostic clean generated scenes stop at, most common
+/// first (`cargo test --release --test fuzz -- --ignored survey --nocapture`).
+#[test]
+#[ignore]
+fn survey_clean_scene_stops() {
+    if std::env::var_os(runner::WORKER_ENV).is_some() {
+        return;
+    }
+    let gen = runner::Generator::new(SEED);
+    let ws = runner::Workspace::create(PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fuzz-survey"));
+    let mut tally = std::collections::BTreeMap::<String, u32>::new();
+    for index in 0..600 {
+        let case = gen.case(runner::CaseId { stream: runner::Stream::Scene, index });
+        if case.what != "generated scene (clean)" {
+            continue;
+        }
+        *tally.entry(runner::first_diagnostic(&ws, &case)).or_default() += 1;
+    }
+    let mut rows: Vec<_> = tally.into_iter().collect();
+    rows.sort_by_key(|r| std::cmp::Reverse(r.1));
+    for (message, n) in rows {
+        eprintln!("{n:5}  {message}");
+    }
+}

@@ -90,6 +90,9 @@ fn models_refuse_what_they_cannot_be() {
     // An export extension tessera does not write.
     let p = project(&column().replace("pillar.glb", "pillar.fbx"));
     p.refuses("tessera cannot write `.fbx` files", "\"pillar.fbx\"");
+    // Camera properties on an output of something that is not a model.
+    let p = project(&format!("{}\noutput \"flat.png\" {{\n  from = relief\n  shadows = true\n}}\n", column()));
+    p.refuses("`shadows` applies to renders of a model, not to a layer", "shadows = true");
     // Hostile numbers at their property.
     for (from, to, at) in [
         ("scale = 0.06", "scale = 1e300", "1e300"),

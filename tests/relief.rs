@@ -151,3 +151,13 @@ fn hostile_relief_numbers_are_refused_at_their_property() {
     let p = project(&relief("  terms = [0, 0, 1]\n"));
     p.tessera(&["build", "scene.tess"]).ok();
 }
+
+#[test]
+fn relief_properties_on_a_quilted_layer_are_refused() {
+    for (prop, at) in [("terms", "terms = [0.3, 0.5, 0.2]"), ("depth_blur", "depth_blur = 2 px")] {
+        let p = project(&format!(
+            "{PATCHES}layer q {{\n  quilt = bricks\n  {at}\n}}\n\noutput \"q.png\" {{\n  from = q\n}}\n"
+        ));
+        p.refuses(&format!("`{prop}` applies only to relief layers"), at);
+    }
+}

@@ -356,6 +356,6 @@ fn glb(cx: &RunCx, &(model, colour, space): &(In<Model>, In<Image>, ColorSpace))
     let texture = linear_texture(&cx.get(colour), space);
     let png = raster::io::encode_png(&raster::color::image_linear_to_srgb(&texture), 8)
         .map_err(|e| StageError::new(format!("cannot encode the texture: {e}")))?;
-    let textures = mesh::gltf::GlbTextures { base_color_png: Some(png), normal_png: None, occlusion_png: None };
-    Ok(Bytes(mesh::gltf::write_glb(&m.mesh, Some(&m.tangents), &textures)))
+    let textures = mesh::GlbTextures { base_color_png: Some(png), normal_png: None, occlusion_png: None };
+    Ok(Bytes(mesh::write_glb(&m.mesh, Some(&m.tangents), &textures)))
 }

@@ -240,11 +240,21 @@ fn props(rng: &mut Rng, specs: &[PropSpec], names: &Names, depth: usize, out: &m
                 "height" | "mask" => false,
                 _ => present,
             }
-        } else if names.noise == 0.0 && matches!((kind, p.name), ("layer", "relief") | ("surface", "mesh")) {
+        } else if names.noise == 0.0
+            && matches!((kind, p.name), ("layer", "relief" | "terms" | "depth_blur") | ("surface", "mesh"))
+        {
             // A relief layer needs patches and a mesh surface an OBJ file: the relief tests
             // build those.
             false
-        } else if names.noise == 0.0 && kind == "output" && matches!(p.name, "view" | "format" | "light" | "normals") {
+        } else if names.noise == 0.0
+            && kind == "output"
+            && matches!(
+                p.name,
+                "view" | "format" | "light" | "normals" | "azimuth" | "elevation" | "resolution" | "shadows"
+            )
+        {
+            // Views, formats and the render properties of models are for the sources that
+            // have them, which the kinds' own tests build.
             false
         } else {
             present
@@ -285,6 +295,14 @@ fn value(rng: &mut Rng, p: &PropSpec, names: &Names, depth: usize) -> String {
 fn typed(rng: &mut Rng, prop: &str, ty: &Ty, names: &Names, depth: usize) -> String {
     match ty {
         Ty::Number(unit, range) => number(rng, *unit, *range, names.noise),
+        // Pixel counts are whole; a clean scene rounds them (a noisy one keeps fractions).
+        Ty::Pixels(range) if names.noise == 0.0 => {
+            let text = number(rng, Unit::Length, *range, 0.0);
+            match text.trim_end_matches(" px").parse::<f64>() {
+                Ok(v) if v.is_finite() && v.abs() < 1e9 => format!("{} px", v.round()),
+                _ => text,
+            }
+        }
         Ty::Pixels(range) => number(rng, Unit::Length, *range, names.noise),
         Ty::Int(lo, hi) => int(rng, *lo, *hi, names.noise),
         Ty::Bool => (if rng.chance(0.5) { "true" } else { "false" }).into(),

@@ -46,6 +46,16 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
     if props.get("relief").is_some() {
         return relief::plan(p, d);
     }
+    for key in ["terms", "depth_blur"] {
+        if let Some(span) = props.span(key) {
+            return Err(Diagnostic::error(format!("`{key}` applies only to relief layers"))
+                .with_code("tessera::layer")
+                .with_label(span, "remove this")
+                .with_help(
+                    "`terms` and `depth_blur` weigh and smooth the depth of a layer made with `relief = [PATCH, …]`",
+                ));
+        }
+    }
     match (props.reference("quilt"), props.get("blend")) {
         (Some(sample), None) => plan_quilt(p, d, sample),
         (None, Some(_)) => plan_blend(p, d),

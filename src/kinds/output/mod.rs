@@ -93,6 +93,9 @@ pub static SPEC: KindSpec = KindSpec {
     ],
 };
 
+/// The output properties only renders of a model read.
+const RENDER_PROPS: [&str; 4] = ["azimuth", "elevation", "resolution", "shadows"];
+
 /// The `view` property: which view of its source an output writes. Which views a source
 /// has is its kind's to say ([`Kind::plan_output`](super::Kind::plan_output)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -274,6 +277,17 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
         .with_code("tessera::output_format")
         .with_label(d.props.span("from").unwrap_or(d.name_span), "not a representation")
         .with_help("write a `representation` with `method = ptm`, or a layer quilted from one"));
+    }
+    if p.decl(from).kind != super::model::SPEC.name {
+        if let Some((key, span)) = RENDER_PROPS.iter().find_map(|k| Some((*k, d.props.span(k)?))) {
+            return Err(Diagnostic::error(format!(
+                "`{key}` applies to renders of a model, not to a {}",
+                p.decl(from).kind
+            ))
+            .with_code("tessera::output_view")
+            .with_label(span, "remove this")
+            .with_help("`azimuth`, `elevation`, `resolution` and `shadows` place the camera of a `model`'s render"));
+        }
     }
     let request = super::OutputRequest { decl: d, from, format, view, ext: &ext };
     if let Some(v) = super::kind(p.decl(from).kind).plan_output(p, &request)? {

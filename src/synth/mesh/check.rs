@@ -21,7 +21,7 @@ use std::fmt;
 
 use glam::{DVec2, DVec3};
 
-use super::Mesh;
+use super::meshes::Mesh;
 
 /// A face's area (3-D, or in UV space) counts as zero below this fraction of its longest edge
 /// squared: far below any face an author means, far above the rounding of `f32` coordinates.
@@ -334,7 +334,7 @@ fn check_edges(mesh: &Mesh, in_range: &[bool], face_lines: &[usize], out: &mut V
 mod tests {
     use glam::{Vec2, Vec3};
 
-    use super::super::Face;
+    use super::super::meshes::Face;
     use super::*;
 
     fn face(positions: &[u32], uvs: &[u32]) -> Face {

@@ -14,7 +14,7 @@ use rayon::prelude::*;
 
 use crate::raster::Image;
 
-use super::Mesh;
+use super::meshes::Mesh;
 
 /// How finely each coarse face is subdivided.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -23,7 +23,7 @@ use std::collections::HashMap;
 use glam::{DVec2, DVec3, Vec2, Vec3};
 
 use super::check::newell;
-use super::{Face, Mesh, TriMesh};
+use super::meshes::{Face, Mesh, TriMesh};
 
 /// An orthonormal frame at a vertex.
 #[derive(Clone, Copy, Debug, PartialEq)]

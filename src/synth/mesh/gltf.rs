@@ -10,7 +10,7 @@
 //! as `(u, 1 − v)`. Normals and tangents are written normalised (glTF requires unit vectors) and
 //! a tangent's `w` as ±1.
 
-use super::TriMesh;
+use super::meshes::TriMesh;
 use glam::{Vec2, Vec3, Vec4};
 use serde_json::{json, Value};
 

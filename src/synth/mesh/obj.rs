@@ -20,7 +20,7 @@ use std::fmt::Write as _;
 use glam::{Vec2, Vec3};
 
 use super::check::{self, Attribute, FaceAt, Limits, MeshError};
-use super::{Face, Mesh, TriMesh};
+use super::meshes::{Face, Mesh, TriMesh};
 
 /// A mesh read from OBJ with the line (from 1) of each face's `f` statement.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -337,7 +337,7 @@ l 1 5
         assert_eq!(m.uvs[4], Vec2::new(0.5, 1.5));
         assert_eq!(obj.face_lines, [17, 19]);
         // The groups share the edge 3-2 (one position each side, not a copy per group).
-        let uses = super::super::edge_uses(m.faces.iter().map(|f| &f.positions[..]));
+        let uses = super::super::meshes::edge_uses(m.faces.iter().map(|f| &f.positions[..]));
         assert_eq!(uses[&(2, 3)], 2);
         assert_eq!(obj.validate(), Ok(()));
         assert_eq!(load_obj(QUAD_AND_TRIANGLE.as_bytes()).as_ref(), Ok(m));

@@ -22,7 +22,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::displace::Displaced;
-use super::TriMesh;
+use super::meshes::TriMesh;
 
 /// A vertex of a displaced face: [`Displaced::faces`]`[face].positions[vertex]`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
