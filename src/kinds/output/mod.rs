@@ -278,7 +278,8 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
         .with_label(d.props.span("from").unwrap_or(d.name_span), "not a representation")
         .with_help("write a `representation` with `method = ptm`, or a layer quilted from one"));
     }
-    if p.decl(from).kind != super::model::SPEC.name {
+    // What a model's reference yields is what only a model renders from.
+    if !super::kind(p.decl(from).kind).spec().produces.contains(&Value::Model) {
         if let Some((key, span)) = RENDER_PROPS.iter().find_map(|k| Some((*k, d.props.span(k)?))) {
             return Err(Diagnostic::error(format!(
                 "`{key}` applies to renders of a model, not to a {}",
