@@ -1,12 +1,15 @@
 //! `model`: a mesh surface relieved by a depth map [references: frasson §5.3.2]: each coarse face
 //! subdivided on its own grid and displaced along its normal by `scale·(g − 0.5)`, the gaps between
-//! faces zipped by triangle strips, the result drawn by the software renderer (`.png` outputs),
-//! written as OBJ or as glTF binary with its colour texture (`.obj`, `.glb`).
+//! faces zipped by triangle strips, each strip textured from the two faces beside it (a seam
+//! texture: both faces' edges unfolded into the gap and joined by a minimum-error cut), the result
+//! drawn by the software renderer (`.png` outputs), written as OBJ or as glTF binary with its
+//! texture (`.obj`, `.glb`). The model's texture is the colour texture with the seam textures'
+//! atlas below it.
 //!
 //! ```text
-//! surface.mesh, depth ─► model.displace ─► output.render (camera, lights)
-//!                                     ├──► output.obj
-//! colour ─────────────────────────────┴──► output.glb
+//! surface.mesh, depth, colour ─► model.displace ─► output.render (camera, lights)
+//!                                              ├──► output.obj
+//!                                              └──► output.glb
 //! ```
 //!
 //! Changing the camera or the light re-runs only the render; the displaced mesh is cached.
@@ -61,25 +64,50 @@ pub static SPEC: KindSpec = KindSpec {
             default: Default::Text("0"),
             doc: "Grid cells per face side; 0 follows the depth's resolution (half the face's longest UV edge in texels).",
         },
+        PropSpec {
+            name: "seam_reach",
+            ty: Ty::Number(Unit::Plain, Range { min: 0.0, max: 10.0 }),
+            default: Default::Text("0.75"),
+            doc: "How far into each face the seam texture reads, relative to the widest gap the seam opens (d'/d).",
+        },
+        PropSpec {
+            name: "seam_overlap",
+            ty: Ty::Number(Unit::Fraction, Range { min: 0.0, max: 1.0 }),
+            default: Default::Text("50 %"),
+            doc: "How much of their width the two faces' bands share in a seam texture; the overlap is split by a minimum-error cut.",
+        },
+        PropSpec {
+            name: "seam_feather",
+            ty: Ty::Int(0, 16),
+            default: Default::Text("2"),
+            doc: "Texels over which the seam texture's cut is feathered (0: a hard cut).",
+        },
     ],
 };
 
-/// A displaced model: the triangles (faces and seam strips) and their tangents.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+/// A displaced model: the triangles (faces and seam strips), their tangents, and the texture
+/// they read (the colour texture with the seam textures' atlas below it).
+#[derive(Clone, Debug)]
 pub struct Model {
     pub mesh: TriMesh,
     pub tangents: Vec<Vec4>,
+    pub texture: Image,
 }
 
 impl super::artifact::Encoded for Model {
     fn encode(&self) -> Vec<u8> {
-        serde_json::to_vec(self).expect("a model serialises")
+        super::artifact::pack(&(&self.mesh, &self.tangents), &[&self.texture])
     }
 
     fn decode(bytes: &[u8]) -> Result<Self, String> {
-        serde_json::from_slice(bytes).map_err(|e| e.to_string())
+        let ((mesh, tangents), mut images) = super::artifact::unpack::<(TriMesh, Vec<Vec4>)>(bytes)?;
+        let texture = images.pop().ok_or("a model without its texture")?;
+        Ok(Model { mesh, tangents, texture })
     }
 }
+
+/// Most texels of seam textures one model makes (256 MB of RGB).
+const MAX_SEAM_TEXELS: u64 = 1 << 24;
 
 /// Meshes with more vertices than this after displacement are refused (about 2 GB of model).
 const MAX_VERTICES: usize = 20_000_000;
@@ -88,7 +116,9 @@ const MAX_VERTICES: usize = 20_000_000;
 struct Displacing {
     mesh: In<Mesh>,
     depth: In<Image>,
+    colour: In<Image>,
     params: displace::DisplaceParams,
+    seams: mesh::seam_texture::SeamTextureParams,
 }
 
 fn run_displace(cx: &RunCx, d: &Displacing) -> Result<Model, StageError> {
@@ -114,9 +144,16 @@ fn run_displace(cx: &RunCx, d: &Displacing) -> Result<Model, StageError> {
             displaced.folded_triangles
         ));
     }
-    let tri = displaced.to_trimesh(&seams.strips, &seams.corners);
+    let colour = cx.get(d.colour);
+    let (tri, texture) = match mesh::textured::texture_seams(&displaced, &seams, &colour, &d.seams, MAX_SEAM_TEXELS) {
+        Ok(t) => (t.mesh, t.texture),
+        Err(e) => {
+            cx.warn(format!("the seams are textured by interpolating the faces' UVs: {e}"));
+            (displaced.to_trimesh(&seams.strips, &seams.corners), (*colour).clone())
+        }
+    };
     let tangents = triangle_tangents(&tri);
-    Ok(Model { mesh: tri, tangents })
+    Ok(Model { mesh: tri, tangents, texture })
 }
 
 /// Seams whose strip turns inside out (a triangle facing against the mean of the two faces'
@@ -225,11 +262,17 @@ impl super::Kind for ModelKind {
         };
         let params =
             displace::DisplaceParams { scale: props.num("scale") as f32, mid: 0.5, subdiv, max_vertices: MAX_VERTICES };
+        let seams = mesh::seam_texture::SeamTextureParams {
+            reach: props.num("seam_reach") as f32,
+            overlap: props.num("seam_overlap") as f32,
+            feather: props.int("seam_feather") as usize,
+            ..mesh::seam_texture::SeamTextureParams::default()
+        };
         let mut inputs = Inputs::new();
-        let displacing = Displacing { mesh: inputs.add(mesh), depth: inputs.add(depth), params };
-        let stage = FnStage::keyed("model.displace", 2, displacing, run_displace);
+        let displacing =
+            Displacing { mesh: inputs.add(mesh), depth: inputs.add(depth), colour: inputs.add(colour.0), params, seams };
+        let stage = FnStage::keyed("model.displace", 3, displacing, run_displace);
         let node: Handle<Model> = p.add(format!("model {}", d.name), stage, inputs, vec![]);
-        p.set_part(d, "colour", colour.0);
         p.export(d).image = Some(colour.1);
         Ok(Some(node.erase()))
     }
@@ -242,10 +285,9 @@ impl super::Kind for ModelKind {
                 .with_label(d.props.span("view").unwrap_or(d.name_span), "remove this"));
         }
         let model: Handle<Model> = p.result(out.from);
-        let colour: Handle<Image> = p.part(out.from, "colour").expect("planned with the model");
         let space = p.color_space(out.from);
         let mut inputs = Inputs::new();
-        let (model, colour) = (inputs.add(model), inputs.add(colour));
+        let model = inputs.add(model);
         let node = match out.format {
             OutputFormat::Obj => {
                 let stage = FnStage::keyed("output.obj", 1, model, |cx, &m| {
@@ -254,12 +296,12 @@ impl super::Kind for ModelKind {
                 p.add(format!("output {}", d.name), stage, inputs, vec![])
             }
             OutputFormat::Glb => {
-                let stage = FnStage::keyed("output.glb", 1, (model, colour, space), glb);
+                let stage = FnStage::keyed("output.glb", 2, (model, space), glb);
                 p.add(format!("output {}", d.name), stage, inputs, vec![])
             }
             OutputFormat::Png8 | OutputFormat::Png16 | OutputFormat::Exr => {
                 let view = camera_of(d, out.format);
-                let stage = FnStage::keyed("output.render", 2, (model, colour, space, view), draw);
+                let stage = FnStage::keyed("output.render", 3, (model, space, view), draw);
                 p.add(format!("output {}", d.name), stage, inputs, vec![])
             }
             _ => {
@@ -322,10 +364,10 @@ fn direction(azimuth_deg: f64, elevation_deg: f64) -> Vec3 {
 
 fn draw(
     cx: &RunCx,
-    &(model, colour, space, s): &(In<Model>, In<Image>, ColorSpace, Shot),
+    &(model, space, s): &(In<Model>, ColorSpace, Shot),
 ) -> Result<Bytes, StageError> {
     let m = cx.get(model);
-    let texture = linear_texture(&cx.get(colour), space);
+    let texture = linear_texture(&m.texture, space);
     let Some((lo, hi)) = m.mesh.bounds() else {
         return Err(StageError::new("the model has no triangles to draw"));
     };
@@ -351,9 +393,9 @@ fn draw(
     super::output::encode_image(&to_file_space(&img, ColorSpace::Linear, s.format), s.format)
 }
 
-fn glb(cx: &RunCx, &(model, colour, space): &(In<Model>, In<Image>, ColorSpace)) -> Result<Bytes, StageError> {
+fn glb(cx: &RunCx, &(model, space): &(In<Model>, ColorSpace)) -> Result<Bytes, StageError> {
     let m = cx.get(model);
-    let texture = linear_texture(&cx.get(colour), space);
+    let texture = linear_texture(&m.texture, space);
     let png = raster::io::encode_png(&raster::color::image_linear_to_srgb(&texture), 8)
         .map_err(|e| StageError::new(format!("cannot encode the texture: {e}")))?;
     let textures = mesh::GlbTextures { base_color_png: Some(png), normal_png: None, occlusion_png: None };

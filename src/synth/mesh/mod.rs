@@ -11,7 +11,9 @@
 //!
 //! Around them: [`obj`] reads and writes OBJ text, [`check`] validates a mesh (every problem with
 //! its face and OBJ line), [`frames`] gives per-vertex tangent frames and the triangulation,
-//! [`displace`] and [`seam`] relieve a mesh and close its seams, [`gltf`] writes glTF binaries.
+//! [`displace`] and [`seam`] relieve a mesh and close its seams, [`seam_texture`] textures the
+//! seams from the faces beside them, [`textured`] gathers it all into one textured triangle mesh,
+//! [`gltf`] writes glTF binaries.
 
 pub mod check;
 pub mod displace;
@@ -21,6 +23,9 @@ mod meshes;
 pub mod obj;
 pub mod seam;
 pub mod seam_texture;
+pub mod textured;
+#[cfg(test)]
+mod tests;
 
 pub use check::{problems, validate, validate_with_lines, FaceAt, Limits, MeshError};
 pub use frames::{face_triangles, position_normals, tangent_frames, triangulate, Frame, Frames};

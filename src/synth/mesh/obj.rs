@@ -226,14 +226,23 @@ fn vec_line(out: &mut String, key: &str, values: &[f32]) {
     out.push('\n');
 }
 
-/// A triangle mesh as OBJ text: `v`, `vt` and `vn` lines (one per vertex; `vt`/`vn` only when
-/// there is one per vertex) and `f a/a/a b/b/b c/c/c` lines, indices from 1.
+/// A triangle mesh as OBJ text: `v` lines (one per distinct position), `vt` and `vn` lines (one
+/// per vertex, only when there is one per vertex) and `f p/a/a q/b/b r/c/c` lines, indices from 1.
 pub fn write_obj(mesh: &TriMesh) -> String {
     let n = mesh.positions.len();
     let (with_uvs, with_normals) = (mesh.uvs.len() == n, mesh.normals.len() == n);
+    // Vertices that differ only in UV or normal (a UV seam) share one `v` line, as OBJ indexes
+    // positions apart from texture coordinates: a mesh closed by position reads back closed.
+    let mut first: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
+    let mut position_of = Vec::with_capacity(n);
     let mut out = String::from("# tessera triangle mesh\n");
     for p in &mesh.positions {
-        vec_line(&mut out, "v", &p.to_array());
+        let next = first.len() as u32;
+        let at = *first.entry(p.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() })).or_insert_with(|| {
+            vec_line(&mut out, "v", &p.to_array());
+            next
+        });
+        position_of.push(at);
     }
     if with_uvs {
         for t in &mesh.uvs {
@@ -248,12 +257,13 @@ pub fn write_obj(mesh: &TriMesh) -> String {
     for tri in &mesh.triangles {
         out.push('f');
         for &i in tri {
+            let p = position_of.get(i as usize).map_or(i, |&p| p) + 1;
             let i = i + 1;
             let _ = match (with_uvs, with_normals) {
-                (true, true) => write!(out, " {i}/{i}/{i}"),
-                (true, false) => write!(out, " {i}/{i}"),
-                (false, true) => write!(out, " {i}//{i}"),
-                (false, false) => write!(out, " {i}"),
+                (true, true) => write!(out, " {p}/{i}/{i}"),
+                (true, false) => write!(out, " {p}/{i}"),
+                (false, true) => write!(out, " {p}//{i}"),
+                (false, false) => write!(out, " {p}"),
             };
         }
         out.push('\n');
