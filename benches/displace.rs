@@ -20,7 +20,15 @@ fn rippled_grid(n: usize) -> Mesh {
             m.positions.push(Vec3::new(x, y, 0.02 * (x * 37.0).sin() + 0.02 * (y * 29.0).cos()));
         }
     }
-    m.uvs = vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0), Vec2::new(0.5, 0.0), Vec2::new(0.5, 0.5), Vec2::new(0.0, 0.5)];
+    m.uvs = vec![
+        Vec2::new(0.0, 0.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(1.0, 1.0),
+        Vec2::new(0.0, 1.0),
+        Vec2::new(0.5, 0.0),
+        Vec2::new(0.5, 0.5),
+        Vec2::new(0.0, 0.5),
+    ];
     let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
     for j in 0..n {
         for i in 0..n {
@@ -59,7 +67,9 @@ fn bench(c: &mut Criterion) {
             (d.faces.len(), s.strips.len())
         })
     });
-    group.bench_function("displace_10k_faces_res64", |b| b.iter(|| displace(black_box(&mesh), &depth, &params).unwrap().faces.len()));
+    group.bench_function("displace_10k_faces_res64", |b| {
+        b.iter(|| displace(black_box(&mesh), &depth, &params).unwrap().faces.len())
+    });
     group.bench_function("zip_10k_faces_res64", |b| b.iter(|| zip(black_box(&displaced)).strips.len()));
     group.bench_function("to_trimesh_10k_faces_res64", |b| {
         b.iter(|| black_box(&displaced).to_trimesh(&seams.strips, &seams.corners).triangles.len())

@@ -100,12 +100,41 @@ fn models_refuse_what_they_cannot_be() {
         ("azimuth = 20 deg", "azimuth = 1e400 deg", "1e400"),
         ("elevation = 15 deg", "elevation = 120 deg", "120 deg"),
         ("resolution = 320 x 320", "resolution = 0 x 320", "0 x 320"),
+        ("subdiv = 16", "subdiv = 16\n  seam_reach = -1", "-1"),
+        ("subdiv = 16", "subdiv = 16\n  seam_overlap = 150 %", "150 %"),
+        ("subdiv = 16", "subdiv = 16\n  seam_feather = 99", "99"),
     ] {
         let p = project(&column().replacen(from, to, 1));
         let run = p.tessera(&["build", "scene.tess"]);
         run.failed();
         assert!(run.stderr().contains(at), "{to}:\n{}", run.stderr());
         assert!(!run.stderr().contains("panicked"), "{}", run.stderr());
+    }
+}
+
+#[test]
+fn seams_are_textured_from_their_faces_at_any_setting() {
+    let p = project(&column());
+    p.tessera(&["build", "scene.tess"]).ok();
+    // The strips' vertices are the faces' seam-edge vertices again, with seam-texture UVs: more
+    // texture coordinates than positions, positions still shared.
+    let obj = String::from_utf8(p.read("out/scene/pillar.obj")).unwrap();
+    let (v, vt) =
+        (obj.lines().filter(|l| l.starts_with("v ")).count(), obj.lines().filter(|l| l.starts_with("vt ")).count());
+    assert!(vt > v, "{vt} texture coordinates for {v} positions");
+    // Editing the seam texture settings re-runs the model and its outputs, not the relief.
+    p.write("scene.tess", &column().replace("subdiv = 16", "subdiv = 16\n  seam_feather = 0"));
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    let ran = common::ran(&stages);
+    assert!(ran.contains(&"model pillar".to_string()) && !ran.iter().any(|s| s.starts_with("layer")), "{ran:?}");
+    // The extremes of every setting build.
+    for extra in [
+        "seam_reach = 0\n  seam_overlap = 0 %\n  seam_feather = 0",
+        "seam_reach = 10\n  seam_overlap = 100 %\n  seam_feather = 16",
+    ] {
+        let p = project(&column().replace("subdiv = 16", &format!("subdiv = 16\n  {extra}")));
+        p.tessera(&["build", "scene.tess"]).ok();
     }
 }
 

@@ -269,8 +269,13 @@ impl super::Kind for ModelKind {
             ..mesh::seam_texture::SeamTextureParams::default()
         };
         let mut inputs = Inputs::new();
-        let displacing =
-            Displacing { mesh: inputs.add(mesh), depth: inputs.add(depth), colour: inputs.add(colour.0), params, seams };
+        let displacing = Displacing {
+            mesh: inputs.add(mesh),
+            depth: inputs.add(depth),
+            colour: inputs.add(colour.0),
+            params,
+            seams,
+        };
         let stage = FnStage::keyed("model.displace", 3, displacing, run_displace);
         let node: Handle<Model> = p.add(format!("model {}", d.name), stage, inputs, vec![]);
         p.export(d).image = Some(colour.1);
@@ -362,10 +367,7 @@ fn direction(azimuth_deg: f64, elevation_deg: f64) -> Vec3 {
     Vec3::new((e.cos() * a.sin()) as f32, e.sin() as f32, (e.cos() * a.cos()) as f32)
 }
 
-fn draw(
-    cx: &RunCx,
-    &(model, space, s): &(In<Model>, ColorSpace, Shot),
-) -> Result<Bytes, StageError> {
+fn draw(cx: &RunCx, &(model, space, s): &(In<Model>, ColorSpace, Shot)) -> Result<Bytes, StageError> {
     let m = cx.get(model);
     let texture = linear_texture(&m.texture, space);
     let Some((lo, hi)) = m.mesh.bounds() else {

@@ -23,9 +23,9 @@ mod meshes;
 pub mod obj;
 pub mod seam;
 pub mod seam_texture;
-pub mod textured;
 #[cfg(test)]
 mod tests;
+pub mod textured;
 
 pub use check::{problems, validate, validate_with_lines, FaceAt, Limits, MeshError};
 pub use frames::{face_triangles, position_normals, tangent_frames, triangulate, Frame, Frames};

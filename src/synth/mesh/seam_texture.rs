@@ -192,7 +192,8 @@ impl Layout {
 pub fn layout(width: usize, height: usize, seam: &SeamQuad, params: &SeamTextureParams) -> Layout {
     let (sa, sb) = (&seam.side_a, &seam.side_b);
     let size = Vec2::new(width as f32, height as f32);
-    let edge_texels = ((sa.edge_uv[1] - sa.edge_uv[0]) * size).length().max(((sb.edge_uv[1] - sb.edge_uv[0]) * size).length());
+    let edge_texels =
+        ((sa.edge_uv[1] - sa.edge_uv[0]) * size).length().max(((sb.edge_uv[1] - sb.edge_uv[0]) * size).length());
     let max_length = params.max_length.max(2);
     let rows = if edge_texels.is_finite() { (edge_texels.round() as usize).clamp(2, max_length) } else { 2 };
     let reach = params.reach.max(0.0) * seam.gap();
@@ -468,17 +469,6 @@ mod tests {
         assert!(seam.side_a.uv_at(Vec3::new(0.5, 0.5, 0.0)).distance(Vec2::new(0.25, 0.25)) < 1e-6);
     }
 
-    /// The largest ΔE between horizontal neighbours in columns `from..to` of `img`.
-    fn max_jump(img: &Image, from: usize, to: usize) -> f32 {
-        let mut worst = 0.0f32;
-        for y in 0..img.height {
-            for x in from..to {
-                worst = worst.max(delta_e(&px(img, x, y), &px(img, x + 1, y)));
-            }
-        }
-        worst
-    }
-
     /// Texel `k` (0 at the edge) of a side's band in row `r` of a seam texture `s`.
     fn band_texel(tex: &Image, side: &FaceSide, s: &SeamTexture, r: usize, k: usize) -> Vec<f32> {
         let t = r as f32 / (s.image.height - 1) as f32;
@@ -500,7 +490,8 @@ mod tests {
             for x in s.band - s.overlap..=s.band {
                 let dw = (weight(r, x) - weight(r, x - 1)).abs();
                 let at = if x < s.band { x } else { x - 1 };
-                let (a, b) = (band_texel(tex, &seam.side_a, s, r, at), band_texel(tex, &seam.side_b, s, r, columns - 1 - at));
+                let (a, b) =
+                    (band_texel(tex, &seam.side_a, s, r, at), band_texel(tex, &seam.side_b, s, r, columns - 1 - at));
                 row = row.max(dw * delta_e(&a, &b));
             }
             worst = worst.max(row);
@@ -514,7 +505,8 @@ mod tests {
         // Three layouts of the two faces in the texture: separate islands with courses at the
         // same height, islands with courses offset, and one unwrapped sheet (B's edge is A's).
         let tex = stones(256, 256);
-        let layouts: [(&str, fn(f32) -> SeamQuad); 3] = [
+        type Layout = (&'static str, fn(f32) -> SeamQuad);
+        let layouts: [Layout; 3] = [
             ("aligned", |g| box_seam_at(g, 0.05)),
             ("offset", |g| box_seam_at(g, 0.55)),
             ("unwrapped", |g| {
@@ -539,12 +531,22 @@ mod tests {
                     x if x < band => 0.5,
                     _ => 1.0,
                 });
-                eprintln!("{name} gap {gap}: max, mean ΔE introduced: cut {ic:?}, hard cut {ih:?}, cross-fade {ifade:?}");
-                assert!(ic[0] < ifade[0], "{name} gap {gap}: max ΔE across the cut {} vs cross-fade {}", ic[0], ifade[0]);
+                eprintln!(
+                    "{name} gap {gap}: max, mean ΔE introduced: cut {ic:?}, hard cut {ih:?}, cross-fade {ifade:?}"
+                );
+                assert!(
+                    ic[0] < ifade[0],
+                    "{name} gap {gap}: max ΔE across the cut {} vs cross-fade {}",
+                    ic[0],
+                    ifade[0]
+                );
                 assert!(ic[1] < ifade[1]);
                 // The image is what the weights say.
                 let (r, x) = (cut.image.height / 2, cut.cut[cut.image.height / 2]);
-                let (a, b) = (band_texel(&tex, &seam.side_a, &cut, r, x), band_texel(&tex, &seam.side_b, &cut, r, cut.image.width - 1 - x));
+                let (a, b) = (
+                    band_texel(&tex, &seam.side_a, &cut, r, x),
+                    band_texel(&tex, &seam.side_b, &cut, r, cut.image.width - 1 - x),
+                );
                 let w = weight_b(x, x, p.feather);
                 for c in 0..3 {
                     assert!((cut.image.get(x, r, c) - (a[c] * (1.0 - w) + b[c] * w)).abs() < 1e-4);

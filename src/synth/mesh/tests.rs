@@ -18,7 +18,12 @@ fn quad_mesh(quads: &[([f32; 2], [f32; 4])]) -> Mesh {
     for &([x0, x1], [u0, v0, u1, v1]) in quads {
         let base = m.positions.len() as u32;
         let ubase = m.uvs.len() as u32;
-        m.positions.extend([Vec3::new(x0, 0.0, 0.0), Vec3::new(x1, 0.0, 0.0), Vec3::new(x1, 1.0, 0.0), Vec3::new(x0, 1.0, 0.0)]);
+        m.positions.extend([
+            Vec3::new(x0, 0.0, 0.0),
+            Vec3::new(x1, 0.0, 0.0),
+            Vec3::new(x1, 1.0, 0.0),
+            Vec3::new(x0, 1.0, 0.0),
+        ]);
         m.uvs.extend([Vec2::new(u0, v0), Vec2::new(u1, v0), Vec2::new(u1, v1), Vec2::new(u0, v1)]);
         m.faces.push(Face { positions: (base..base + 4).collect(), uvs: (ubase..ubase + 4).collect() });
     }
@@ -75,7 +80,8 @@ fn vertices_move_by_scale_times_height_minus_half_along_the_normal() {
     let w = 64;
     let ramp = Image::from_fn(w, 4, 1, |x, _, _| (x as f32 + 0.5) / w as f32);
     // A tilted quad, so the normal is not an axis.
-    let corners = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 1.0), Vec3::new(2.0, 1.0, 1.0), Vec3::new(0.0, 1.0, 0.0)];
+    let corners =
+        [Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 1.0), Vec3::new(2.0, 1.0, 1.0), Vec3::new(0.0, 1.0, 0.0)];
     let mesh = Mesh {
         positions: corners.to_vec(),
         uvs: vec![Vec2::new(0.1, 0.2), Vec2::new(0.9, 0.2), Vec2::new(0.9, 0.8), Vec2::new(0.1, 0.8)],
@@ -94,7 +100,10 @@ fn vertices_move_by_scale_times_height_minus_half_along_the_normal() {
     }
     // And the sample points are the bilinear grid of the corners.
     let at = |s: f32, t: f32| {
-        corners[0] * (1.0 - s) * (1.0 - t) + corners[1] * s * (1.0 - t) + corners[2] * s * t + corners[3] * (1.0 - s) * t
+        corners[0] * (1.0 - s) * (1.0 - t)
+            + corners[1] * s * (1.0 - t)
+            + corners[2] * s * t
+            + corners[3] * (1.0 - s) * t
     };
     assert!(flat.positions[10 * 3 + 4].distance(at(4.0 / 9.0, 3.0 / 9.0)) < 1e-6);
 }
@@ -115,7 +124,9 @@ fn subdivision_follows_the_depth_resolution() {
     // The grids built have the counts the rule predicts, for triangles, quads and a pentagon.
     let pentagon = Mesh {
         positions: (0..5).map(|k| Vec3::new((k as f32 * 1.2566).cos(), (k as f32 * 1.2566).sin(), 0.0)).collect(),
-        uvs: (0..5).map(|k| Vec2::new(0.5 + 0.25 * (k as f32 * 1.2566).cos(), 0.5 + 0.25 * (k as f32 * 1.2566).sin())).collect(),
+        uvs: (0..5)
+            .map(|k| Vec2::new(0.5 + 0.25 * (k as f32 * 1.2566).cos(), 0.5 + 0.25 * (k as f32 * 1.2566).sin()))
+            .collect(),
         faces: vec![
             Face { positions: vec![0, 1, 2, 3, 4], uvs: vec![0, 1, 2, 3, 4] },
             Face { positions: vec![0, 1, 2], uvs: vec![0, 1, 2] },
@@ -134,7 +145,10 @@ fn subdivision_follows_the_depth_resolution() {
 fn too_many_vertices_are_refused_before_anything_is_built() {
     let mesh = quad_mesh(&[([0.0, 1.0], [0.0, 0.0, 1.0, 1.0])]);
     let p = DisplaceParams { max_vertices: 1000, subdiv: Subdiv::Fixed(256), ..DisplaceParams::default() };
-    assert!(matches!(displace(&mesh, &wavy(8), &p), Err(super::displace::DisplaceError::TooManyVertices { needed: 66049, .. })));
+    assert!(matches!(
+        displace(&mesh, &wavy(8), &p),
+        Err(super::displace::DisplaceError::TooManyVertices { needed: 66049, .. })
+    ));
 }
 
 /// Checks F34 on one zipped seam: strip triangles on seam-edge vertices only, every side vertex
@@ -145,7 +159,8 @@ fn check_strip(d: &Displaced, strip: &super::seam::Strip) {
     let mut used = std::collections::BTreeSet::new();
     for t in &strip.triangles {
         for r in t {
-            let ok = (r.face == strip.face_a && on_a.contains(&r.vertex)) || (r.face == strip.face_b && on_b.contains(&r.vertex));
+            let ok = (r.face == strip.face_a && on_a.contains(&r.vertex))
+                || (r.face == strip.face_b && on_b.contains(&r.vertex));
             assert!(ok, "strip vertex {r:?} is not on the seam");
             used.insert(*r);
         }
@@ -168,7 +183,9 @@ fn check_strip(d: &Displaced, strip: &super::seam::Strip) {
 }
 
 /// Undirected edge uses and directed edge counts of a triangle mesh.
-fn edge_counts(m: &TriMesh) -> (BTreeMap<(u32, u32), u32>, BTreeMap<(u32, u32), u32>) {
+type EdgeCounts = BTreeMap<(u32, u32), u32>;
+
+fn edge_counts(m: &TriMesh) -> (EdgeCounts, EdgeCounts) {
     let mut undirected = BTreeMap::new();
     let mut directed = BTreeMap::new();
     for t in &m.triangles {
@@ -190,14 +207,18 @@ fn two_faces_with_different_levels_zip_into_one_watertight_sheet() {
         let seams = zip(&d);
         assert_eq!(seams.strips.len(), 1);
         let s = &seams.strips[0];
-        assert_eq!((s.side_a.len(), s.side_b.len()), (d.faces[s.face_a as usize].n as usize + 1, d.faces[s.face_b as usize].n as usize + 1));
+        assert_eq!(
+            (s.side_a.len(), s.side_b.len()),
+            (d.faces[s.face_a as usize].n as usize + 1, d.faces[s.face_b as usize].n as usize + 1)
+        );
         check_strip(&d, s);
         let m = d.to_trimesh(&seams.strips, &seams.corners);
         let (undirected, directed) = edge_counts(&m);
         assert!(undirected.values().all(|&c| c <= 2), "an edge is used by 3 triangles");
         assert!(directed.values().all(|&c| c == 1), "two triangles run an edge the same way");
         // The border: the sheet's outline, a single loop of edges used once.
-        let border: Vec<(u32, u32)> = directed.keys().copied().filter(|&(a, b)| !directed.contains_key(&(b, a))).collect();
+        let border: Vec<(u32, u32)> =
+            directed.keys().copied().filter(|&(a, b)| !directed.contains_key(&(b, a))).collect();
         let next: BTreeMap<u32, u32> = border.iter().copied().collect();
         assert_eq!(next.len(), border.len(), "the border branches");
         let mut at = border[0].0;
@@ -221,7 +242,8 @@ fn two_faces_with_different_levels_zip_into_one_watertight_sheet() {
 
 #[test]
 fn zip_links_for_unequal_sides() {
-    let line = |n: usize, z: f32| -> Vec<Vec3> { (0..n).map(|i| Vec3::new(i as f32 / (n - 1) as f32, 0.0, z)).collect() };
+    let line =
+        |n: usize, z: f32| -> Vec<Vec3> { (0..n).map(|i| Vec3::new(i as f32 / (n - 1) as f32, 0.0, z)).collect() };
     for (n1, n2) in [(2, 2), (2, 9), (9, 2), (5, 17), (17, 5), (3, 3), (2, 3)] {
         let (e1, e2) = (line(n1, 0.0), line(n2, 0.1));
         let links = zip_links(&e1, &e2);
@@ -337,7 +359,8 @@ fn textured_seams_keep_the_cube_closed_by_position_and_read_the_faces_edges() {
     }
     // Face vertices point at the same texel as before; strip vertices read, in the seam atlas,
     // the colour of the face vertex they duplicate (their border column is the face's edge).
-    let smooth = Image::from_fn(96, 64, 3, |x, y, c| 0.5 + 0.4 * ((x as f32 * 0.05 + c as f32).sin() * (y as f32 * 0.07).cos()));
+    let smooth =
+        Image::from_fn(96, 64, 3, |x, y, c| 0.5 + 0.4 * ((x as f32 * 0.05 + c as f32).sin() * (y as f32 * 0.07).cos()));
     let t = texture_seams(&d, &seams, &smooth, &SeamTextureParams::default(), 1 << 24).unwrap();
     let offsets = d.vertex_offsets();
     let texel = |uv: Vec2, w: usize, h: usize| Vec2::new(uv.x * w as f32, (1.0 - uv.y) * h as f32);
@@ -347,7 +370,9 @@ fn textured_seams_keep_the_cube_closed_by_position_and_read_the_faces_edges() {
             assert!(texel(uv, 96, 64).distance(texel(now, t.texture.width, t.texture.height)) < 1e-3);
         }
     }
-    let at = |img: &Image, uv: Vec2| -> Vec3 { Vec3::from_array([0, 1, 2].map(|c| super::displace::sample_channel(img, uv, c))) };
+    let at = |img: &Image, uv: Vec2| -> Vec3 {
+        Vec3::from_array([0, 1, 2].map(|c| super::displace::sample_channel(img, uv, c)))
+    };
     let mut worst: f32 = 0.0;
     let mut strip_vertices = 0;
     for tri in &t.mesh.triangles[t.face_triangles..] {
@@ -372,7 +397,10 @@ fn textured_seams_keep_the_cube_closed_by_position_and_read_the_faces_edges() {
     let mut tiled = mesh.clone();
     tiled.uvs[0].x = 2.5;
     let d = displace(&tiled, &wavy(64), &params(0.08, Subdiv::Fixed(4))).unwrap();
-    assert_eq!(texture_seams(&d, &zip(&d), &colour, &SeamTextureParams::default(), 1 << 24), Err(SeamTexturing::RepeatingUvs));
+    assert_eq!(
+        texture_seams(&d, &zip(&d), &colour, &SeamTextureParams::default(), 1 << 24),
+        Err(SeamTexturing::RepeatingUvs)
+    );
     assert!(matches!(
         texture_seams(&d, &zip(&d), &colour, &SeamTextureParams::default(), 10),
         Err(SeamTexturing::RepeatingUvs | SeamTexturing::TooLarge { .. })
