@@ -106,7 +106,7 @@ impl super::artifact::Encoded for Model {
     }
 }
 
-/// Most texels of seam textures one model makes (256 MB of RGB).
+/// Most texels of seam textures one model makes (16 M: 192 MB of RGB while it is built).
 const MAX_SEAM_TEXELS: u64 = 1 << 24;
 
 /// Meshes with more vertices than this after displacement are refused (about 2 GB of model).
@@ -295,7 +295,7 @@ impl super::Kind for ModelKind {
         let model = inputs.add(model);
         let node = match out.format {
             OutputFormat::Obj => {
-                let stage = FnStage::keyed("output.obj", 1, model, |cx, &m| {
+                let stage = FnStage::keyed("output.obj", 2, model, |cx, &m| {
                     Ok(Bytes(mesh::obj::write_obj(&cx.get(m).mesh).into_bytes()))
                 });
                 p.add(format!("output {}", d.name), stage, inputs, vec![])
