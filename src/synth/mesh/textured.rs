@@ -121,13 +121,10 @@ pub fn texture_seams(
     let to_uv = |x: f32, y: f32| Vec2::new(x / cw as f32, 1.0 - y / ch as f32);
     let face_uv = |uv: Vec2| to_uv(uv.x * w as f32, (1.0 - uv.y) * h as f32);
 
-    let offsets = d.vertex_offsets();
-    let mut mesh = TriMesh::default();
-    for (f, &o) in d.faces.iter().zip(&offsets) {
-        mesh.positions.extend_from_slice(&f.positions);
-        mesh.normals.extend_from_slice(&f.normals);
-        mesh.uvs.extend(f.uvs.iter().map(|&uv| face_uv(uv)));
-        mesh.triangles.extend(f.triangles.iter().map(|t| t.map(|v| v + o)));
+    // The faces as the untextured mesh has them, their UVs moved into the combined texture.
+    let mut mesh = d.to_trimesh(&[], &[]);
+    for uv in &mut mesh.uvs {
+        *uv = face_uv(*uv);
     }
     let face_triangles = mesh.triangles.len();
     for (((s, q), t), p) in seams.strips.iter().zip(&quads).zip(&textures).zip(&placements) {
@@ -149,6 +146,7 @@ pub fn texture_seams(
             mesh.triangles.push(mapped);
         }
     }
+    let offsets = d.vertex_offsets();
     let global = |r: VertexRef| offsets[r.face as usize] + r.vertex;
     for t in seams.corners.iter().flat_map(|c| &c.triangles) {
         mesh.triangles.push(t.map(global));
