@@ -46,7 +46,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
     if props.get("relief").is_some() {
         return relief::plan(p, d);
     }
-    for key in ["terms", "depth_blur"] {
+    for key in ["terms", "depth_blur", "contour_relief"] {
         if let Some(span) = props.span(key) {
             return Err(Diagnostic::error(format!("`{key}` applies only to relief layers"))
                 .with_code("tessera::layer")
@@ -98,7 +98,11 @@ impl super::Kind for Layer {
         // their first source's).
         let source = match d.props.reference("quilt") {
             Some(s) => s.to_string(),
-            None if d.props.get("relief").is_some() => d.props.refs("relief")[0].clone(),
+            // Guided by an appearance, the colour is the appearance's.
+            None if d.props.get("relief").is_some() => match d.props.reference("guide") {
+                Some(g) if p.has_part(g, "dressing") => g.to_string(),
+                _ => d.props.refs("relief")[0].clone(),
+            },
             None => d.props.refs("blend")[0].clone(),
         };
         p.export(d).image = Some(p.color_space(&source));

@@ -14,12 +14,16 @@
 
 use super::{exact_size, prop_of, quilt_error, wire, QUILT_BYTES_PER_PIXEL};
 use crate::graph::{Handle, In, Inputs, RunCx, StageError};
+use crate::kinds::artifact::{self, Encoded};
 use crate::kinds::sample::patch::{self, HEIGHT, MASK};
 use crate::kinds::{ColorSpace, FnStage, Planner};
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::{self, Image};
+use crate::synth::appearance::analysis::{Contours, Interiors};
+use crate::synth::appearance::Dressing;
 use crate::synth::map as m;
 use crate::synth::quilt::{self, Guide, QuiltOptions, QuiltParams, QuiltResult, SampleChoice, Terms};
+use crate::synth::relief::instanced::{self, DepthTextures};
 use crate::synth::surface::Plane;
 use crate::synth::Progress;
 
@@ -55,6 +59,17 @@ pub(super) fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnosti
                 .with_label(span, "remove this")
                 .with_help("a relief layer takes `relief`, `guide`, `on`, `block`, `overlap`, `tolerance`, `terms`, `depth_blur`"));
         }
+    }
+    if p.has_part(guide_name, "dressing") {
+        return plan_instanced(p, d, guide_name, block, overlap, [terms[0] as f32, terms[1] as f32, terms[2] as f32]);
+    }
+    if let Some(span) = props.span("contour_relief") {
+        return Err(Diagnostic::error(
+            "`contour_relief` serves the contour atlases of an appearance; this guide is an image",
+        )
+        .with_code("tessera::relief")
+        .with_label(span, "remove this")
+        .with_label(props.span("guide").unwrap_or(d.name_span), "not an appearance"));
     }
     let mut inputs = Inputs::new();
     let span = props.span("relief").unwrap_or(d.name_span);
@@ -131,27 +146,7 @@ fn run_relief(cx: &RunCx, r: &Relief) -> Result<QuiltResult, StageError> {
     let guide = cx.get(r.guide.0);
     exact_size(&guide, w, h, "guide")?;
     let guide = linear_rgb(&guide, r.guide.1).map_err(|e| StageError::new(e).at_prop("guide"))?;
-    let mut images = Vec::with_capacity(r.patches.len());
-    let mut masks = Vec::with_capacity(r.patches.len());
-    for &(node, space) in &r.patches {
-        let pt = cx.get(node);
-        let colour = Image::from_fn(pt.width, pt.height, 3, |x, y, c| pt.get(x, y, c));
-        let colour = linear_rgb(&colour, space).map_err(|e| StageError::new(e).at_prop("relief"))?;
-        images.push(Image::from_fn(pt.width, pt.height, 4, |x, y, c| {
-            if c < 3 {
-                colour.get(x, y, c)
-            } else {
-                pt.get(x, y, HEIGHT)
-            }
-        }));
-        let mask = pt.plane(MASK);
-        masks.push(mask.iter().any(|&v| v > 0.5).then(|| Image {
-            width: pt.width,
-            height: pt.height,
-            channels: 1,
-            data: mask.to_vec(),
-        }));
-    }
+    let (images, masks) = load_patches(cx, &r.patches)?;
     let plane = r.surface.map(|i| cx.get(i));
     if let Some(pl) = &plane {
         exact_size(&pl.occupancy, w, h, "on")?;
@@ -170,7 +165,40 @@ fn run_relief(cx: &RunCx, r: &Relief) -> Result<QuiltResult, StageError> {
         ..QuiltOptions::default()
     };
     let refs: Vec<&Image> = images.iter().collect();
-    quilt::quilt_with(&refs, &r.params, &options).map_err(|e| match e {
+    quilt::quilt_with(&refs, &r.params, &options).map_err(relief_error)
+}
+
+/// The patches as linear RGB + depth (channel 3), with their masks where any pixel is masked.
+type Patches = (Vec<Image>, Vec<Option<Image>>);
+
+fn load_patches(cx: &RunCx, patches: &[(In<Image>, ColorSpace)]) -> Result<Patches, StageError> {
+    let mut images = Vec::with_capacity(patches.len());
+    let mut masks = Vec::with_capacity(patches.len());
+    for &(node, space) in patches {
+        let pt = cx.get(node);
+        let colour = Image::from_fn(pt.width, pt.height, 3, |x, y, c| pt.get(x, y, c));
+        let colour = linear_rgb(&colour, space).map_err(|e| StageError::new(e).at_prop("relief"))?;
+        images.push(Image::from_fn(pt.width, pt.height, 4, |x, y, c| {
+            if c < 3 {
+                colour.get(x, y, c)
+            } else {
+                pt.get(x, y, HEIGHT)
+            }
+        }));
+        let mask = pt.plane(MASK);
+        masks.push(mask.iter().any(|&v| v > 0.5).then(|| Image {
+            width: pt.width,
+            height: pt.height,
+            channels: 1,
+            data: mask.to_vec(),
+        }));
+    }
+    Ok((images, masks))
+}
+
+/// The errors of a relief quilt, at the property to fix.
+fn relief_error(e: quilt::QuiltError) -> StageError {
+    match e {
         quilt::QuiltError::BlockTooLarge { .. } | quilt::QuiltError::NoCandidates { .. } => {
             quilt_error(e).at_prop("block").with_help("every patch must hold at least one block")
         }
@@ -178,7 +206,7 @@ fn run_relief(cx: &RunCx, r: &Relief) -> Result<QuiltResult, StageError> {
             StageError::new(e.to_string()).at_prop(prop_of(what))
         }
         _ => quilt_error(e),
-    })
+    }
 }
 
 /// The depth image: channel 3 of the quilted patches, blurred by `σ` pixels (0 = off).
@@ -202,4 +230,196 @@ fn colour(cx: &RunCx, &(quilted, space): &(In<QuiltResult>, ColorSpace)) -> Resu
         ColorSpace::Srgb => raster::color::image_linear_to_srgb(&rgb),
         ColorSpace::Lab => raster::color::image_linear_rgb_to_lab(&rgb).map_err(|e| StageError::new(e.to_string()))?,
     })
+}
+
+/// A relief layer guided by an appearance [references: frasson §5.4]: one depth quilted per
+/// unified texture and per contour atlas (keyed on the textures and patches only, never on the
+/// structure the appearance dresses), drawn through the dressing's own UVs.
+///
+/// ```text
+/// appearance.interiors + .contours, patches ─► layer.relief_textures ─┐
+/// appearance.dress ───────────────────────────────────────────────────┴► layer.instanced_depth ─► layer.depth_blur
+/// appearance.render ─► layer.image (the appearance's colour)
+/// ```
+fn plan_instanced(
+    p: &mut Planner,
+    d: &Decl,
+    guide: &str,
+    block: usize,
+    overlap: usize,
+    terms: [f32; 3],
+) -> Result<Handle<Image>, Diagnostic> {
+    let props = &d.props;
+    for key in ["on", "tileable"] {
+        if let Some(span) = props.span(key) {
+            return Err(Diagnostic::error(format!(
+                "`{key}` does not apply to a relief guided by an appearance: its depth is drawn where the appearance draws its colour"
+            ))
+            .with_code("tessera::relief")
+            .with_label(span, "remove this")
+            .with_label(props.span("guide").unwrap_or(d.name_span), "an appearance"));
+        }
+    }
+    let interiors: Handle<Interiors> = p.part(guide, "interiors").expect("appearances plan their interiors");
+    let contours: Handle<Contours> = p.part(guide, "contours").expect("appearances plan their contours");
+    let dressing: Handle<Dressing> = p.part(guide, "dressing").expect("checked by the caller");
+    let guide_at = props.span("guide").unwrap_or(d.name_span);
+    let render = p.value::<Image>(guide, guide_at)?;
+    let scale = p.decl(guide).props.num("resolution");
+
+    let mut inputs = Inputs::new();
+    let span = props.span("relief").unwrap_or(d.name_span);
+    let mut patches = Vec::new();
+    for name in props.refs("relief") {
+        let node = patch::patch_of(p, name, span)?;
+        patches.push((inputs.add(node), p.color_space(name)));
+    }
+    let contour_patches = match props.get("contour_relief") {
+        Some(_) => {
+            let span = props.span("contour_relief").unwrap_or(d.name_span);
+            let mut list = Vec::new();
+            for name in props.refs("contour_relief") {
+                let node = patch::patch_of(p, name, span)?;
+                list.push((inputs.add(node), p.color_space(name)));
+            }
+            Some(list)
+        }
+        None => None,
+    };
+    let mut params = QuiltParams::new(1, 1, block, p.seed(d, "layer.relief"));
+    params.overlap = overlap;
+    params.tolerance = props.opt_num("tolerance").unwrap_or(0.0) as f32;
+    params.metric = super::spec::METRICS.get(props.enumeration("metric"));
+    params.equalise = super::spec::EQUALISE.get(props.enumeration("equalise"));
+    params.candidate_stride = props.int("stride") as usize;
+    let work = TextureRelief {
+        params,
+        terms,
+        patches,
+        contour_patches,
+        interiors: inputs.add(interiors),
+        contours: inputs.add(contours),
+        space: p.color_space(guide),
+    };
+    let stage = FnStage::keyed("layer.relief_textures", 1, work, run_texture_relief);
+    let textures = p.add(format!("layer {} (relief textures)", d.name), stage, inputs, vec![]);
+
+    let mut inputs = Inputs::new();
+    let work = (inputs.add(dressing), inputs.add(textures), inputs.add(render), scale);
+    let stage = FnStage::keyed("layer.instanced_depth", 1, work, instanced_depth);
+    let raw = p.add(format!("layer {} (instanced depth)", d.name), stage, inputs, vec![]);
+
+    let mut inputs = Inputs::new();
+    let work = (inputs.add(raw), props.num("depth_blur"));
+    let stage = FnStage::keyed("layer.depth_blur", 1, work, blurred);
+    let depth = p.add(format!("layer {} (depth)", d.name), stage, inputs, vec![]);
+    p.set_part(d, "depth", depth);
+
+    let mut inputs = Inputs::new();
+    let colour = inputs.add(render);
+    let stage = FnStage::keyed("layer.appearance_colour", 1, colour, |cx, &c| {
+        let img = cx.get(c);
+        Ok(Image::from_fn(img.width, img.height, 3, |x, y, k| img.get(x, y, k.min(img.channels - 1))))
+    });
+    Ok(p.add(format!("layer {}", d.name), stage, inputs, vec![]))
+}
+
+/// What the per-texture depth quilt works from.
+#[derive(serde::Serialize)]
+struct TextureRelief {
+    params: QuiltParams,
+    terms: [f32; 3],
+    patches: Vec<(In<Image>, ColorSpace)>,
+    /// The atlases' own patches (`contour_relief`), when given.
+    contour_patches: Option<Vec<(In<Image>, ColorSpace)>>,
+    interiors: In<Interiors>,
+    contours: In<Contours>,
+    /// The colour space of the appearance's textures.
+    space: ColorSpace,
+}
+
+impl Encoded for DepthTextures {
+    fn encode(&self) -> Vec<u8> {
+        let mut images: Vec<&Image> = self.unified.iter().collect();
+        images.extend([&self.interstices, &self.junctions]);
+        artifact::pack(&self.unified.len(), &images)
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, String> {
+        let (n, mut images) = artifact::unpack::<usize>(bytes)?;
+        if images.len() != n + 2 {
+            return Err(format!("{} depth textures, expected {}", images.len(), n + 2));
+        }
+        let junctions = images.pop().expect("counted");
+        let interstices = images.pop().expect("counted");
+        Ok(DepthTextures { unified: images, interstices, junctions })
+    }
+}
+
+fn run_texture_relief(cx: &RunCx, r: &TextureRelief) -> Result<DepthTextures, StageError> {
+    let interiors = cx.get(r.interiors);
+    let contours = cx.get(r.contours);
+    let atlases = [&contours.interstices.image, &contours.junctions.image];
+    let pixels: usize = interiors.unified.iter().map(|u| &u.image).chain(atlases).map(|g| g.width * g.height).sum();
+    cx.budget()
+        .check(pixels as f64 * QUILT_BYTES_PER_PIXEL, "the relief's depth textures")
+        .map_err(|e| StageError::new(e).at_prop("guide"))?;
+    let interior_patches = load_patches(cx, &r.patches)?;
+    let contour_patches = match &r.contour_patches {
+        Some(p) => Some(load_patches(cx, p)?),
+        None => None,
+    };
+    let [a1, a2, a3] = r.terms;
+    let total = (interiors.unified.len() + 2) as u64;
+    let mut depths = Vec::with_capacity(interiors.unified.len() + 2);
+    let textures = interiors.unified.iter().map(|u| &u.image).chain(atlases);
+    for (i, texture) in textures.enumerate() {
+        let atlas = i >= interiors.unified.len();
+        let ((images, masks), prop) = match (&contour_patches, atlas) {
+            (Some(c), true) => (c, "contour_relief"),
+            _ => (&interior_patches, "relief"),
+        };
+        let guide = instanced::atlas_guide(texture);
+        let guide = linear_rgb(&guide, r.space).map_err(|e| StageError::new(e).at_prop("guide"))?;
+        let alpha = atlas.then(|| texture.plane(3.min(texture.channels - 1)));
+        let options = QuiltOptions {
+            terms: Terms::with_depth(a1, a2, a3),
+            depth_channels: vec![HEIGHT],
+            choice: SampleChoice::NearestMean { lab: true },
+            ignore: masks.iter().map(Option::as_ref).collect(),
+            ..QuiltOptions::default()
+        };
+        let params = QuiltParams { seed: instanced::texture_seed(r.params.seed, i), ..r.params.clone() };
+        let refs: Vec<&Image> = images.iter().collect();
+        let depth = instanced::quilt_depth(&guide, alpha, &refs, HEIGHT, &params, &options).map_err(|e| {
+            let e = relief_error(e);
+            if prop == "relief" {
+                e
+            } else {
+                e.at_prop(prop)
+            }
+        })?;
+        depths.push(depth);
+        cx.progress(i as u64 + 1, total);
+    }
+    let junctions = depths.pop().expect("one per texture");
+    let interstices = depths.pop().expect("one per texture");
+    Ok(DepthTextures { unified: depths, interstices, junctions })
+}
+
+fn instanced_depth(
+    cx: &RunCx,
+    &(dressing, textures, render, scale): &(In<Dressing>, In<DepthTextures>, In<Image>, f64),
+) -> Result<Image, StageError> {
+    let render = cx.get(render);
+    Ok(instanced::render_depth(&cx.get(dressing), &cx.get(textures), render.width, render.height, scale))
+}
+
+/// A depth image blurred by `σ` pixels (0 = off).
+fn blurred(cx: &RunCx, &(depth, sigma): &(In<Image>, f64)) -> Result<Image, StageError> {
+    let d = cx.get(depth);
+    if sigma <= 0.0 {
+        return Ok((*d).clone());
+    }
+    m::blur(&d, sigma as f32).map_err(|e| StageError::new(e.to_string()).at_prop("depth_blur"))
 }

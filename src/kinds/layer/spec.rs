@@ -157,7 +157,7 @@ pub static SPEC: KindSpec = KindSpec {
             "guide",
             Ty::Ref(&[Value::Map, Value::Image]),
             Default::Absent,
-            "A guide image of the output's size; its channel i is compared with sample channel i (Frasson Eq. 5.2).",
+            "A guide image of the output's size; its channel i is compared with sample channel i (Frasson Eq. 5.2). A relief layer may name an `appearance` instead: a depth is quilted per unified texture and per contour atlas and drawn through the appearance's own UVs (Frasson Sec. 5.4), so the depth never crosses a region border and a new target costs no synthesis.",
         ),
         prop(
             "guide_weight",
@@ -189,6 +189,12 @@ pub static SPEC: KindSpec = KindSpec {
             Ty::Refs(&[Value::Patch]),
             Default::Absent,
             "Synthesise colour and depth together from these patches (samples with a `height`) under `guide`: each block comes from the patch nearest in mean CIELAB colour to the guide block, scored by `terms`. The layer's image is the colour; `view = height` writes the depth.",
+        ),
+        prop(
+            "contour_relief",
+            Ty::Refs(&[Value::Patch]),
+            Default::Absent,
+            "With `guide` an appearance: the patches its contour atlases (interstices and junctions) are quilted from, while `relief` serves its unified textures (Frasson Sec. 5.4: one patch per texture). Absent: `relief` serves all.",
         ),
         prop(
             "terms",

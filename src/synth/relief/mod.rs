@@ -6,6 +6,7 @@
 
 #[cfg(any(test, feature = "fixtures"))]
 pub mod fixtures;
+pub mod instanced;
 
 use crate::raster::color::linear_rgb_to_lab;
 use crate::raster::Image;
