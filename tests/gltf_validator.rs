@@ -56,6 +56,7 @@ fn written_glb_passes_the_khronos_validator() {
         base_color_png: Some(png(&base)),
         normal_png: Some(png(&normal)),
         occlusion_png: Some(png(&occlusion)),
+        height_png: Some(encode_png(&Image::from_fn(16, 16, 1, |x, _, _| x as f32 / 15.0), 16).expect("encode png")),
     };
     let glb = write_glb(&mesh, Some(&tangents), &textures);
     let bare = write_glb(&mesh, None, &GlbTextures::default());

@@ -4,7 +4,8 @@
 //! texture: both faces' edges unfolded into the gap and joined by a minimum-error cut), the result
 //! drawn by the software renderer (`.png` outputs), written as OBJ or as glTF binary with its
 //! texture (`.obj`, `.glb`). The model's texture is the colour texture with the seam textures'
-//! atlas below it.
+//! atlas below it; its normal map (the residual relief the grid misses) and height map share
+//! that layout.
 //!
 //! ```text
 //! surface.mesh, depth, colour ─► model.displace ─► output.render (camera, lights)
@@ -27,7 +28,7 @@ use crate::synth::render;
 
 pub static SPEC: KindSpec = KindSpec {
     name: "model",
-    doc: "A mesh surface relieved by a depth map: displaced face by face, its seams zipped, drawn by the renderer (`.png` outputs at `azimuth`, `elevation` and `light`), written as `.obj` or as glTF binary (`.glb`) with its colour texture.",
+    doc: "A mesh surface relieved by a depth map: displaced face by face, its seams zipped, drawn by the renderer (`.png` outputs at `azimuth`, `elevation` and `light`), written as `.obj` or as glTF binary (`.glb`) with its colour, its normal map (the relief finer than the displaced grid, which the renders shade too) and its height map (material `extras.heightTexture`).",
     naming: Naming::Ident,
     produces: &[Value::Model],
     settings: &[],
@@ -85,24 +86,29 @@ pub static SPEC: KindSpec = KindSpec {
     ],
 };
 
-/// A displaced model: the triangles (faces and seam strips), their tangents, and the texture
-/// they read (the colour texture with the seam textures' atlas below it).
+/// A displaced model: the triangles (faces and seam strips), their tangents, and the maps they
+/// read, all in one layout (the colour texture with the seam textures' atlas below it): the
+/// colour, a tangent-space normal map of the relief finer than the mesh's grid, and the depth
+/// that displaced it (flat, 0.5, on the seam atlas).
 #[derive(Clone, Debug)]
 pub struct Model {
     pub mesh: TriMesh,
     pub tangents: Vec<Vec4>,
     pub texture: Image,
+    pub normal: Image,
+    pub height: Image,
 }
 
 impl super::artifact::Encoded for Model {
     fn encode(&self) -> Vec<u8> {
-        super::artifact::pack(&(&self.mesh, &self.tangents), &[&self.texture])
+        super::artifact::pack(&(&self.mesh, &self.tangents), &[&self.texture, &self.normal, &self.height])
     }
 
     fn decode(bytes: &[u8]) -> Result<Self, String> {
-        let ((mesh, tangents), mut images) = super::artifact::unpack::<(TriMesh, Vec<Vec4>)>(bytes)?;
-        let texture = images.pop().ok_or("a model without its texture")?;
-        Ok(Model { mesh, tangents, texture })
+        let ((mesh, tangents), images) = super::artifact::unpack::<(TriMesh, Vec<Vec4>)>(bytes)?;
+        let [texture, normal, height]: [Image; 3] =
+            images.try_into().map_err(|_| "a model holds three maps".to_string())?;
+        Ok(Model { mesh, tangents, texture, normal, height })
     }
 }
 
@@ -145,6 +151,14 @@ fn run_displace(cx: &RunCx, d: &Displacing) -> Result<Model, StageError> {
         ));
     }
     let colour = cx.get(d.colour);
+    // The maps at the colour texture's size, before the seam atlas joins it.
+    let (w, h) = (colour.width, colour.height);
+    let residual = mesh::detail::residual_height(&displaced, &depth, w, h);
+    let normal = mesh::detail::normal_map(&residual, d.params.scale, mesh::detail::texel_size(&displaced, w, h));
+    let height = Image::from_fn(w, h, 1, |x, y, _| {
+        let uv = glam::Vec2::new((x as f32 + 0.5) / w as f32, 1.0 - (y as f32 + 0.5) / h as f32);
+        displace::sample_bilinear(&depth, uv)
+    });
     let (tri, texture) = match mesh::textured::texture_seams(&displaced, &seams, &colour, &d.seams, MAX_SEAM_TEXELS) {
         Ok(t) => (t.mesh, t.texture),
         Err(e) => {
@@ -153,7 +167,22 @@ fn run_displace(cx: &RunCx, d: &Displacing) -> Result<Model, StageError> {
         }
     };
     let tangents = triangle_tangents(&tri);
-    Ok(Model { mesh: tri, tangents, texture })
+    let normal = beside_seams(&normal, &texture, &[0.5, 0.5, 1.0]);
+    let height = beside_seams(&height, &texture, &[0.5]);
+    Ok(Model { mesh: tri, tangents, texture, normal, height })
+}
+
+/// A map of the colour texture's size laid out as the model's texture: on top, its last row
+/// and column repeated once (the gutter), `flat` under the seam atlas.
+fn beside_seams(map: &Image, texture: &Image, flat: &[f32]) -> Image {
+    let (w, h) = (map.width, map.height);
+    Image::from_fn(texture.width, texture.height, map.channels, |x, y, c| {
+        if x <= w && y <= h && w > 0 && h > 0 {
+            map.get(x.min(w - 1), y.min(h - 1), c)
+        } else {
+            flat[c]
+        }
+    })
 }
 
 /// Seams whose strip turns inside out (a triangle facing against the mean of the two faces'
@@ -276,7 +305,7 @@ impl super::Kind for ModelKind {
             params,
             seams,
         };
-        let stage = FnStage::keyed("model.displace", 3, displacing, run_displace);
+        let stage = FnStage::keyed("model.displace", 4, displacing, run_displace);
         let node: Handle<Model> = p.add(format!("model {}", d.name), stage, inputs, vec![]);
         p.export(d).image = Some(colour.1);
         Ok(Some(node.erase()))
@@ -301,12 +330,12 @@ impl super::Kind for ModelKind {
                 p.add(format!("output {}", d.name), stage, inputs, vec![])
             }
             OutputFormat::Glb => {
-                let stage = FnStage::keyed("output.glb", 2, (model, space), glb);
+                let stage = FnStage::keyed("output.glb", 3, (model, space), glb);
                 p.add(format!("output {}", d.name), stage, inputs, vec![])
             }
             OutputFormat::Png8 | OutputFormat::Png16 | OutputFormat::Exr => {
                 let view = camera_of(d, out.format);
-                let stage = FnStage::keyed("output.render", 3, (model, space, view), draw);
+                let stage = FnStage::keyed("output.render", 4, (model, space, view), draw);
                 p.add(format!("output {}", d.name), stage, inputs, vec![])
             }
             _ => {
@@ -390,7 +419,7 @@ fn draw(cx: &RunCx, &(model, space, s): &(In<Model>, ColorSpace, Shot)) -> Resul
         background: [0.18, 0.19, 0.21],
         ..render::RenderOptions::default()
     };
-    let material = render::material::Albedo { texture: &texture, normal_map: None };
+    let material = render::material::Albedo { texture: &texture, normal_map: Some(&m.normal) };
     let img = render::render(&m.mesh, Some(&m.tangents), &material, &camera, &[light], &options);
     super::output::encode_image(&to_file_space(&img, ColorSpace::Linear, s.format), s.format)
 }
@@ -400,6 +429,16 @@ fn glb(cx: &RunCx, &(model, space): &(In<Model>, ColorSpace)) -> Result<Bytes, S
     let texture = linear_texture(&m.texture, space);
     let png = raster::io::encode_png(&raster::color::image_linear_to_srgb(&texture), 8)
         .map_err(|e| StageError::new(format!("cannot encode the texture: {e}")))?;
-    let textures = mesh::GlbTextures { base_color_png: Some(png), normal_png: None, occlusion_png: None };
+    // The normal map holds vectors, not colours: stored as is (glTF reads it linear).
+    let normal = raster::io::encode_png(&m.normal, 8)
+        .map_err(|e| StageError::new(format!("cannot encode the normal map: {e}")))?;
+    let height = raster::io::encode_png(&m.height, 16)
+        .map_err(|e| StageError::new(format!("cannot encode the height map: {e}")))?;
+    let textures = mesh::GlbTextures {
+        base_color_png: Some(png),
+        normal_png: Some(normal),
+        occlusion_png: None,
+        height_png: Some(height),
+    };
     Ok(Bytes(mesh::write_glb(&m.mesh, Some(&m.tangents), &textures)))
 }

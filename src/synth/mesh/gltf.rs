@@ -23,6 +23,9 @@ pub struct GlbTextures {
     pub normal_png: Option<Vec<u8>>,
     /// Ambient occlusion in the red channel.
     pub occlusion_png: Option<Vec<u8>>,
+    /// Grey height (0.5 = the surface), for parallax or displacement. glTF has no slot for it:
+    /// the material's `extras.heightTexture` names it.
+    pub height_png: Option<Vec<u8>>,
 }
 
 const GLB_MAGIC: u32 = 0x4654_6C67;
@@ -128,6 +131,7 @@ pub fn write_glb(mesh: &TriMesh, tangents: Option<&[Vec4]>, textures: &GlbTextur
     let base = texture_of(&textures.base_color_png, &mut bin);
     let normal = texture_of(&textures.normal_png, &mut bin);
     let occlusion = texture_of(&textures.occlusion_png, &mut bin);
+    let height = texture_of(&textures.height_png, &mut bin);
     while bin.bytes.len() % 4 != 0 {
         bin.bytes.push(0);
     }
@@ -142,6 +146,9 @@ pub fn write_glb(mesh: &TriMesh, tangents: Option<&[Vec4]>, textures: &GlbTextur
     }
     if let Some(i) = occlusion {
         material["occlusionTexture"] = json!({ "index": i });
+    }
+    if let Some(i) = height {
+        material["extras"] = json!({ "heightTexture": { "index": i } });
     }
     let mut doc = json!({
         "asset": { "version": "2.0", "generator": "tessera" },
@@ -221,6 +228,7 @@ mod tests {
             base_color_png: Some(vec![1, 2, 3, 4, 5]),
             normal_png: Some(vec![6, 7, 8]),
             occlusion_png: None,
+            height_png: Some(vec![9, 10]),
         };
         let glb = write_glb(&mesh, Some(&tangents), &textures);
         assert_eq!(glb, write_glb(&mesh, Some(&tangents), &textures), "deterministic");
@@ -261,6 +269,8 @@ mod tests {
         assert_eq!(material["pbrMetallicRoughness"]["metallicFactor"], 0.0);
         assert_eq!(material["pbrMetallicRoughness"]["roughnessFactor"], 1.0);
         assert_eq!(material["normalTexture"]["index"], 1);
+        assert_eq!(material["extras"]["heightTexture"]["index"], 2);
+        assert_eq!(doc["textures"].as_array().unwrap().len(), 3);
         assert_eq!(doc["samplers"][0]["wrapS"], 10497);
     }
 

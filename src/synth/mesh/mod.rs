@@ -16,6 +16,7 @@
 //! [`gltf`] writes glTF binaries.
 
 pub mod check;
+pub mod detail;
 pub mod displace;
 pub mod frames;
 pub mod gltf;
