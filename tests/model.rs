@@ -103,6 +103,9 @@ fn models_refuse_what_they_cannot_be() {
         ("subdiv = 16", "subdiv = 16\n  seam_reach = -1", "-1"),
         ("subdiv = 16", "subdiv = 16\n  seam_overlap = 150 %", "150 %"),
         ("subdiv = 16", "subdiv = 16\n  seam_feather = 99", "99"),
+        ("subdiv = 16", "subdiv = 16\n  seam_reach = nan", "nan"),
+        ("subdiv = 16", "subdiv = 16\n  seam_overlap = inf", "inf"),
+        ("subdiv = 16", "subdiv = 16\n  seam_feather = -1", "-1"),
     ] {
         let p = project(&column().replacen(from, to, 1));
         let run = p.tessera(&["build", "scene.tess"]);
