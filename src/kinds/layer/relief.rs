@@ -11,6 +11,9 @@
 //! linear RGB (so CIELAB is exact) whatever the spaces of the guide and patches; the colour image
 //! is handed on in the first patch's space. The depth blur is a stage of its own, so changing it
 //! never searches again.
+//!
+//! With an `appearance` as guide the depth is quilted per texture of the appearance and drawn
+//! through its UVs instead (see [`plan_instanced`]); the colour is then the appearance's.
 
 use super::{exact_size, prop_of, quilt_error, wire, QUILT_BYTES_PER_PIXEL};
 use crate::graph::{Handle, In, Inputs, RunCx, StageError};
@@ -72,23 +75,13 @@ pub(super) fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnosti
         .with_label(props.span("guide").unwrap_or(d.name_span), "not an appearance"));
     }
     let mut inputs = Inputs::new();
-    let span = props.span("relief").unwrap_or(d.name_span);
-    let mut patches = Vec::new();
-    for name in props.refs("relief") {
-        let node = patch::patch_of(p, name, span)?;
-        patches.push((inputs.add(node), p.color_space(name)));
-    }
+    let patches = wire_patches(p, d, &mut inputs, "relief")?;
     let guide = (
         inputs.add(p.value::<Image>(guide_name, props.span("guide").unwrap_or(d.name_span))?),
         p.color_space(guide_name),
     );
     let surface: Option<In<Plane>> = wire(p, d, &mut inputs, "on")?;
-    let mut params = QuiltParams::new(w, h, block, p.seed(d, "layer.relief"));
-    params.overlap = overlap;
-    params.tolerance = props.opt_num("tolerance").unwrap_or(0.0) as f32;
-    params.metric = super::spec::METRICS.get(props.enumeration("metric"));
-    params.equalise = super::spec::EQUALISE.get(props.enumeration("equalise"));
-    params.candidate_stride = props.int("stride") as usize;
+    let mut params = search_params(p, d, (w, h), block, overlap);
     params.tileable = props.bool("tileable");
     let relief = Relief {
         params,
@@ -114,6 +107,34 @@ pub(super) fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnosti
     let space = p.color_space(&props.refs("relief")[0]);
     let stage = FnStage::keyed("layer.image", 2, (quilted, space), colour);
     Ok(p.add(format!("layer {}", d.name), stage, inputs, vec![]))
+}
+
+/// The patches a list property names, as inputs with their colour spaces.
+fn wire_patches(
+    p: &Planner,
+    d: &Decl,
+    inputs: &mut Inputs,
+    key: &str,
+) -> Result<Vec<(In<Image>, ColorSpace)>, Diagnostic> {
+    let span = d.props.span(key).unwrap_or(d.name_span);
+    let mut patches = Vec::new();
+    for name in d.props.refs(key) {
+        let node = patch::patch_of(p, name, span)?;
+        patches.push((inputs.add(node), p.color_space(name)));
+    }
+    Ok(patches)
+}
+
+/// The quilt's size, block, overlap, seed and search settings as the layer states them.
+fn search_params(p: &Planner, d: &Decl, (w, h): (usize, usize), block: usize, overlap: usize) -> QuiltParams {
+    let props = &d.props;
+    let mut params = QuiltParams::new(w, h, block, p.seed(d, "layer.relief"));
+    params.overlap = overlap;
+    params.tolerance = props.opt_num("tolerance").unwrap_or(0.0) as f32;
+    params.metric = super::spec::METRICS.get(props.enumeration("metric"));
+    params.equalise = super::spec::EQUALISE.get(props.enumeration("equalise"));
+    params.candidate_stride = props.int("stride") as usize;
+    params
 }
 
 /// What the relief stage works from.
@@ -268,30 +289,13 @@ fn plan_instanced(
     let scale = p.decl(guide).props.num("resolution");
 
     let mut inputs = Inputs::new();
-    let span = props.span("relief").unwrap_or(d.name_span);
-    let mut patches = Vec::new();
-    for name in props.refs("relief") {
-        let node = patch::patch_of(p, name, span)?;
-        patches.push((inputs.add(node), p.color_space(name)));
-    }
+    let patches = wire_patches(p, d, &mut inputs, "relief")?;
     let contour_patches = match props.get("contour_relief") {
-        Some(_) => {
-            let span = props.span("contour_relief").unwrap_or(d.name_span);
-            let mut list = Vec::new();
-            for name in props.refs("contour_relief") {
-                let node = patch::patch_of(p, name, span)?;
-                list.push((inputs.add(node), p.color_space(name)));
-            }
-            Some(list)
-        }
+        Some(_) => Some(wire_patches(p, d, &mut inputs, "contour_relief")?),
         None => None,
     };
-    let mut params = QuiltParams::new(1, 1, block, p.seed(d, "layer.relief"));
-    params.overlap = overlap;
-    params.tolerance = props.opt_num("tolerance").unwrap_or(0.0) as f32;
-    params.metric = super::spec::METRICS.get(props.enumeration("metric"));
-    params.equalise = super::spec::EQUALISE.get(props.enumeration("equalise"));
-    params.candidate_stride = props.int("stride") as usize;
+    // Each texture's quilt takes its own size.
+    let params = search_params(p, d, (1, 1), block, overlap);
     let work = TextureRelief {
         params,
         terms,
