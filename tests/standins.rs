@@ -61,6 +61,17 @@ fn files() -> Vec<(String, Vec<u8>)> {
             data: painted.mortar.iter().map(|&m| if m { 1.0 } else { 0.0 }).collect(),
         };
         out.push((format!("{}_mortar.png", st.name), raster::io::encode_png(&mortar, 8).expect("png")));
+        if i == 0 {
+            // True height for relief patches cut from the photo: mortar recessed, stones up.
+            let height = Image::from_fn(st.width, st.height, 1, |x, y, _| {
+                if mortar.get(x, y, 0) > 0.5 {
+                    64.0 / 255.0
+                } else {
+                    191.0 / 255.0
+                }
+            });
+            out.push((format!("{}_height.png", st.name), raster::io::encode_png(&height, 8).expect("png")));
+        }
     }
     let (w, h) = (384, 256);
     let facade = Image { width: w, height: h, channels: 1, data: s::facade_occupancy(w, h) };
