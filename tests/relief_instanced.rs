@@ -185,4 +185,11 @@ fn instanced_relief_properties_are_checked_at_their_span() {
         &scene(&structured("rebuilt").replace("contour_relief = [joint]", "contour_relief = [stones]")),
     );
     p.refuses("`stones` is not a patch", "contour_relief = [stones]");
+    // A joint patch smaller than a block fails at the atlases' patches, not at the stones'.
+    p.write("scene.tess", &scene(&structured("rebuilt").replace("block = 12 px", "block = 20 px")));
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.failed();
+    let err = run.stderr();
+    assert!(err.contains("block size 20 does not fit"), "{err}");
+    assert!(err.contains("contour_relief = [joint]") && !err.contains("panicked"), "{err}");
 }
