@@ -235,6 +235,11 @@ fn depth(cx: &RunCx, &(quilted, sigma): &(In<QuiltResult>, f64)) -> Result<Image
     let r = cx.get(quilted);
     let img = &r.image;
     let d = Image { width: img.width, height: img.height, channels: 1, data: img.plane(HEIGHT).to_vec() };
+    blur_depth(d, sigma)
+}
+
+/// `d` blurred by `σ` pixels (0 = off).
+fn blur_depth(d: Image, sigma: f64) -> Result<Image, StageError> {
     if sigma <= 0.0 {
         return Ok(d);
     }
@@ -379,12 +384,13 @@ fn run_texture_relief(cx: &RunCx, r: &TextureRelief) -> Result<DepthTextures, St
     let textures = interiors.unified.iter().map(|u| &u.image).chain(atlases);
     for (i, texture) in textures.enumerate() {
         let atlas = i >= interiors.unified.len();
-        let ((images, masks), prop) = match (&contour_patches, atlas) {
-            (Some(c), true) => (c, "contour_relief"),
-            _ => (&interior_patches, "relief"),
+        let ((images, masks), at) = match (&contour_patches, atlas) {
+            (Some(c), true) => (c, Some("contour_relief")),
+            _ => (&interior_patches, None),
         };
-        let guide = instanced::atlas_guide(texture);
-        let guide = linear_rgb(&guide, r.space).map_err(|e| StageError::new(e).at_prop("guide"))?;
+        // An atlas guides by its RGB, the photo's colour under alpha 0 included (the band
+        // beside each contour places the joint).
+        let guide = linear_rgb(texture, r.space).map_err(|e| StageError::new(e).at_prop("guide"))?;
         let alpha = atlas.then(|| texture.plane(3.min(texture.channels - 1)));
         let options = QuiltOptions {
             terms: Terms::with_depth(a1, a2, a3),
@@ -395,14 +401,8 @@ fn run_texture_relief(cx: &RunCx, r: &TextureRelief) -> Result<DepthTextures, St
         };
         let params = QuiltParams { seed: instanced::texture_seed(r.params.seed, i), ..r.params.clone() };
         let refs: Vec<&Image> = images.iter().collect();
-        let depth = instanced::quilt_depth(&guide, alpha, &refs, HEIGHT, &params, &options).map_err(|e| {
-            let e = relief_error(e);
-            if prop == "relief" {
-                e
-            } else {
-                e.at_prop(prop)
-            }
-        })?;
+        let depth = instanced::quilt_depth(&guide, alpha, &refs, HEIGHT, &params, &options)
+            .map_err(|e| at.into_iter().fold(relief_error(e), StageError::at_prop))?;
         depths.push(depth);
         cx.progress(i as u64 + 1, total);
     }
@@ -421,9 +421,5 @@ fn instanced_depth(
 
 /// A depth image blurred by `σ` pixels (0 = off).
 fn blurred(cx: &RunCx, &(depth, sigma): &(In<Image>, f64)) -> Result<Image, StageError> {
-    let d = cx.get(depth);
-    if sigma <= 0.0 {
-        return Ok((*d).clone());
-    }
-    m::blur(&d, sigma as f32).map_err(|e| StageError::new(e.to_string()).at_prop("depth_blur"))
+    blur_depth((*cx.get(depth)).clone(), sigma)
 }

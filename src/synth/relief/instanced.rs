@@ -23,13 +23,6 @@ pub fn texture_seed(seed: u64, i: usize) -> u64 {
     seed ^ (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
 }
 
-/// The guide a texture gives its depth quilt: its RGB. An atlas keeps the photo's colour under
-/// alpha 0 beside each contour (the band it was cut from), so the depth of the mortar and of
-/// the stone edge it runs between is placed by the same colours as in the photo.
-pub fn atlas_guide(atlas: &Image) -> Image {
-    Image::from_fn(atlas.width, atlas.height, 3, |x, y, c| atlas.get(x, y, c.min(atlas.channels - 1)))
-}
-
 /// The depth of one texture: `patches` (linear RGB + depth in channel `depth_channel`) quilted
 /// under `guide` (linear RGB) at its size, with `params`' block, search and seed and `options`'
 /// terms, choice and masks; grey RGB, with `alpha` (the atlas's coverage) as a fourth channel
