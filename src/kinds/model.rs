@@ -18,12 +18,14 @@
 use glam::{Vec3, Vec4};
 
 use super::output::{to_file_space, View};
+use super::representation::Relightable;
 use super::{Bytes, ColorSpace, FnStage, OutputFormat, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value};
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::{self, Image};
 use crate::synth::mesh::{self, displace, Mesh, TriMesh};
+use crate::synth::relight::{Basis, Light};
 use crate::synth::render;
 
 pub static SPEC: KindSpec = KindSpec {
@@ -52,6 +54,12 @@ pub static SPEC: KindSpec = KindSpec {
             ty: Ty::Ref(&[Value::Map, Value::Image]),
             default: Default::Absent,
             doc: "Instead of `relief`: the depth (first channel, 0.5 = the surface).",
+        },
+        PropSpec {
+            name: "relit",
+            ty: Ty::Ref(&[Value::Image]),
+            default: Default::Absent,
+            doc: "A relightable surface (a `representation`, or a layer quilted from one) laid on through the mesh's UVs: the renders relight it per fragment, each light turned into the fragment's tangent frame. With it, `texture` defaults to the surface relit from straight above and `height` to none (the mesh is then not displaced).",
         },
         PropSpec {
             name: "scale",
@@ -97,18 +105,42 @@ pub struct Model {
     pub texture: Image,
     pub normal: Image,
     pub height: Image,
+    /// A relightable surface in the same layout, which the renders shade instead of the
+    /// colour and normal maps.
+    pub relit: Option<RelitMaps>,
+}
+
+/// A relightable surface's maps (in the output frame) and chromaticity, in a model's layout.
+#[derive(Clone, Debug)]
+pub struct RelitMaps {
+    pub maps: Image,
+    pub chroma: Option<Image>,
+    pub basis: Basis,
 }
 
 impl super::artifact::Encoded for Model {
     fn encode(&self) -> Vec<u8> {
-        super::artifact::pack(&(&self.mesh, &self.tangents), &[&self.texture, &self.normal, &self.height])
+        let mut images = vec![&self.texture, &self.normal, &self.height];
+        let relit = self.relit.as_ref().map(|r| {
+            images.push(&r.maps);
+            images.extend(&r.chroma);
+            (&r.basis, r.chroma.is_some())
+        });
+        super::artifact::pack(&(&self.mesh, &self.tangents, relit), &images)
     }
 
     fn decode(bytes: &[u8]) -> Result<Self, String> {
-        let ((mesh, tangents), images) = super::artifact::unpack::<(TriMesh, Vec<Vec4>)>(bytes)?;
-        let [texture, normal, height]: [Image; 3] =
-            images.try_into().map_err(|_| "a model holds three maps".to_string())?;
-        Ok(Model { mesh, tangents, texture, normal, height })
+        type Head = (TriMesh, Vec<Vec4>, Option<(Basis, bool)>);
+        let ((mesh, tangents, relit), images) = super::artifact::unpack::<Head>(bytes)?;
+        let wanted = 3 + relit.as_ref().map_or(0, |&(_, chroma)| 1 + usize::from(chroma));
+        if images.len() != wanted {
+            return Err(format!("a model holds {wanted} maps, not {}", images.len()));
+        }
+        let mut images = images.into_iter();
+        let mut next = || images.next().expect("counted");
+        let (texture, normal, height) = (next(), next(), next());
+        let relit = relit.map(|(basis, chroma)| RelitMaps { maps: next(), chroma: chroma.then(&mut next), basis });
+        Ok(Model { mesh, tangents, texture, normal, height, relit })
     }
 }
 
@@ -121,16 +153,41 @@ const MAX_VERTICES: usize = 20_000_000;
 #[derive(serde::Serialize)]
 struct Displacing {
     mesh: In<Mesh>,
-    depth: In<Image>,
-    colour: In<Image>,
+    /// Absent for a relit model without a depth: the mesh keeps its shape.
+    depth: Option<In<Image>>,
+    /// Absent for a relit model without a texture: the surface relit from above.
+    colour: Option<In<Image>>,
+    relit: Option<In<Relightable>>,
     params: displace::DisplaceParams,
     seams: mesh::seam_texture::SeamTextureParams,
 }
 
+/// The light a relightable surface is shown under when it stands for a colour texture: straight
+/// above, or for Eigen (whose coefficients exist only on its captured slants) the lowest slant
+/// it was captured at.
+fn overhead(basis: &Basis) -> Light {
+    match basis {
+        Basis::Eigen(e) => Light::new(0.0, e.lights.iter().map(|l| l.slant_deg).fold(f64::INFINITY, f64::min)),
+        _ => Light::new(0.0, 0.0),
+    }
+}
+
 fn run_displace(cx: &RunCx, d: &Displacing) -> Result<Model, StageError> {
     let mesh = cx.get(d.mesh);
-    let depth = cx.get(d.depth);
-    let depth = Image { width: depth.width, height: depth.height, channels: 1, data: depth.plane(0).to_vec() };
+    let relit_error = |e: crate::synth::relight::RelightError| StageError::new(e.to_string()).at_prop("relit");
+    let relightable = d.relit.map(|r| cx.get(r));
+    let colour: Image = match (d.colour, &relightable) {
+        (Some(c), _) => (*cx.get(c)).clone(),
+        (None, Some(r)) => r.relit(&overhead(&r.basis)).map_err(relit_error)?,
+        (None, None) => unreachable!("planned with a texture or a relightable surface"),
+    };
+    let depth = match d.depth {
+        Some(depth) => {
+            let depth = cx.get(depth);
+            Image { width: depth.width, height: depth.height, channels: 1, data: depth.plane(0).to_vec() }
+        }
+        None => Image::filled(1, 1, 1, 0.5),
+    };
     let displaced = displace::displace(&mesh, &depth, &d.params).map_err(|e| {
         let prop = match e {
             displace::DisplaceError::TooManyVertices { .. } => "subdiv",
@@ -150,7 +207,6 @@ fn run_displace(cx: &RunCx, d: &Displacing) -> Result<Model, StageError> {
             displaced.folded_triangles
         ));
     }
-    let colour = cx.get(d.colour);
     // The maps at the colour texture's size, before the seam atlas joins it.
     let (w, h) = (colour.width, colour.height);
     let residual = mesh::detail::residual_height(&displaced, &depth, w, h);
@@ -159,30 +215,45 @@ fn run_displace(cx: &RunCx, d: &Displacing) -> Result<Model, StageError> {
         let uv = glam::Vec2::new((x as f32 + 0.5) / w as f32, 1.0 - (y as f32 + 0.5) / h as f32);
         displace::sample_bilinear(&depth, uv)
     });
-    let (tri, texture) = match mesh::textured::texture_seams(&displaced, &seams, &colour, &d.seams, MAX_SEAM_TEXELS) {
+    // A relightable surface rides along with the colour, channel for channel, so its seams
+    // are cut where the colour's are and it lands in the same layout.
+    let relit = match &relightable {
+        Some(r) => {
+            let maps = r.framed_maps().map_err(relit_error)?;
+            Some((resampled(&maps, w, h), r.chroma.as_ref().map(|c| resampled(c, w, h)), r.basis.clone()))
+        }
+        None => None,
+    };
+    let mut layers = vec![&colour];
+    if let Some((maps, chroma, _)) = &relit {
+        layers.push(maps);
+        layers.extend(chroma);
+    }
+    let stacked = Image::stacked(&layers);
+    let counts: Vec<usize> = layers.iter().map(|l| l.channels).collect();
+    let (tri, stacked) = match mesh::textured::texture_seams(&displaced, &seams, &stacked, &d.seams, MAX_SEAM_TEXELS) {
         Ok(t) => (t.mesh, t.texture),
         Err(e) => {
             cx.warn(format!("the seams are textured by interpolating the faces' UVs: {e}"));
-            (displaced.to_trimesh(&seams.strips, &seams.corners), (*colour).clone())
+            (displaced.to_trimesh(&seams.strips, &seams.corners), stacked)
         }
     };
+    let mut planes = stacked.split(&counts).into_iter();
+    let texture = planes.next().expect("the colour");
+    let relit = relit.map(|(_, chroma, basis)| RelitMaps {
+        maps: planes.next().expect("the maps"),
+        chroma: chroma.and_then(|_| planes.next()),
+        basis,
+    });
     let tangents = triangle_tangents(&tri);
-    let normal = beside_seams(&normal, &texture, &[0.5, 0.5, 1.0]);
-    let height = beside_seams(&height, &texture, &[0.5]);
-    Ok(Model { mesh: tri, tangents, texture, normal, height })
+    let normal = mesh::textured::beside_seams(&normal, &texture, &[0.5, 0.5, 1.0]);
+    let height = mesh::textured::beside_seams(&height, &texture, &[0.5]);
+    Ok(Model { mesh: tri, tangents, texture, normal, height, relit })
 }
 
-/// A map of the colour texture's size laid out as the model's texture: on top, its last row
-/// and column repeated once (the gutter), `flat` under the seam atlas.
-fn beside_seams(map: &Image, texture: &Image, flat: &[f32]) -> Image {
-    let (w, h) = (map.width, map.height);
-    Image::from_fn(texture.width, texture.height, map.channels, |x, y, c| {
-        if x <= w && y <= h && w > 0 && h > 0 {
-            map.get(x.min(w - 1), y.min(h - 1), c)
-        } else {
-            flat[c]
-        }
-    })
+/// `img` at `w × h` (bilinear, wrapping: maps are textures; unchanged at its own size).
+fn resampled(img: &Image, w: usize, h: usize) -> Image {
+    raster::resample::resize_with_edge(img, w, h, raster::Filter::Bilinear, raster::Edge::Wrap)
 }
 
 /// Seams whose strip turns inside out (a triangle facing against the mean of the two faces'
@@ -262,7 +333,25 @@ impl super::Kind for ModelKind {
                 .with_label(on_span, "a mesh surface is needed here")
                 .with_help(format!("give surface `{on}` a `mesh = \"file.obj\"`")));
         };
-        let (colour, depth) = match (props.reference("relief"), props.reference("texture"), props.reference("height")) {
+        let relit = match props.reference("relit") {
+            Some(r) => {
+                let at = props.span("relit").unwrap_or(d.name_span);
+                let Some(surface) = p.part::<Relightable>(r, "relightable") else {
+                    return Err(Diagnostic::error(format!("`{r}` is not relightable"))
+                        .with_code("tessera::model")
+                        .with_label(at, "a `representation`, or a layer quilted from one, is needed here"));
+                };
+                Some(surface)
+            }
+            None => None,
+        };
+        let given = |name: &str| -> Result<Option<(Handle<Image>, ColorSpace)>, Diagnostic> {
+            match props.reference(name) {
+                Some(r) => Ok(Some((p.value::<Image>(r, props.span(name).unwrap_or(d.name_span))?, p.color_space(r)))),
+                None => Ok(None),
+            }
+        };
+        let (colour, depth) = match (props.reference("relief"), given("texture")?, given("height")?) {
             (Some(r), None, None) => {
                 let at = props.span("relief").unwrap_or(d.name_span);
                 let Some(depth) = p.part::<Image>(r, "depth") else {
@@ -271,18 +360,18 @@ impl super::Kind for ModelKind {
                         .with_label(at, "a `layer` with `relief = [...]` is needed here")
                         .with_help("or give the texture and the depth apart: `texture = …` and `height = …`"));
                 };
-                ((p.value::<Image>(r, at)?, p.color_space(r)), depth)
+                (Some((p.value::<Image>(r, at)?, p.color_space(r))), Some(depth))
             }
-            (None, Some(t), Some(h)) => {
-                let tat = props.span("texture").unwrap_or(d.name_span);
-                let hat = props.span("height").unwrap_or(d.name_span);
-                ((p.value::<Image>(t, tat)?, p.color_space(t)), p.value::<Image>(h, hat)?)
-            }
+            (None, Some(t), Some(h)) => (Some(t), Some(h.0)),
+            (None, t, h) if relit.is_some() => (t, h.map(|h| h.0)),
             _ => {
-                return Err(Diagnostic::error(format!("model `{}` needs `relief`, or `texture` and `height`", d.name))
-                    .with_code("tessera::model")
-                    .with_label(props.span("relief").or(props.span("texture")).unwrap_or(d.name_span), "here")
-                    .with_help("`relief = LAYER` takes both from a relief layer"))
+                return Err(Diagnostic::error(format!(
+                    "model `{}` needs `relief`, or `texture` and `height`, or `relit`",
+                    d.name
+                ))
+                .with_code("tessera::model")
+                .with_label(props.span("relief").or(props.span("texture")).unwrap_or(d.name_span), "here")
+                .with_help("`relief = LAYER` takes both from a relief layer"))
             }
         };
         let subdiv = match props.int("subdiv") {
@@ -300,14 +389,16 @@ impl super::Kind for ModelKind {
         let mut inputs = Inputs::new();
         let displacing = Displacing {
             mesh: inputs.add(mesh),
-            depth: inputs.add(depth),
-            colour: inputs.add(colour.0),
+            depth: depth.map(|h| inputs.add(h)),
+            colour: colour.map(|c| inputs.add(c.0)),
+            relit: relit.map(|r| inputs.add(r)),
             params,
             seams,
         };
-        let stage = FnStage::keyed("model.displace", 4, displacing, run_displace);
+        let stage = FnStage::keyed("model.displace", 5, displacing, run_displace);
         let node: Handle<Model> = p.add(format!("model {}", d.name), stage, inputs, vec![]);
-        p.export(d).image = Some(colour.1);
+        // A texture relit from the relightable surface is linear, as relit images are.
+        p.export(d).image = Some(colour.map_or(ColorSpace::Linear, |c| c.1));
         Ok(Some(node.erase()))
     }
 
@@ -335,7 +426,7 @@ impl super::Kind for ModelKind {
             }
             OutputFormat::Png8 | OutputFormat::Png16 | OutputFormat::Exr => {
                 let view = camera_of(d, out.format);
-                let stage = FnStage::keyed("output.render", 4, (model, space, view), draw);
+                let stage = FnStage::keyed("output.render", 5, (model, space, view), draw);
                 p.add(format!("output {}", d.name), stage, inputs, vec![])
             }
             _ => {
@@ -419,8 +510,19 @@ fn draw(cx: &RunCx, &(model, space, s): &(In<Model>, ColorSpace, Shot)) -> Resul
         background: [0.18, 0.19, 0.21],
         ..render::RenderOptions::default()
     };
-    let material = render::material::Albedo { texture: &texture, normal_map: Some(&m.normal) };
-    let img = render::render(&m.mesh, Some(&m.tangents), &material, &camera, &[light], &options);
+    let img = match &m.relit {
+        // The relightable surface holds the relief finer than the mesh itself: the normal map
+        // would count it twice.
+        Some(r) => {
+            let material = render::Relit::new(&r.maps, r.chroma.as_ref(), &r.basis)
+                .map_err(|e| StageError::new(e.to_string()).at_prop("relit"))?;
+            render::render(&m.mesh, Some(&m.tangents), &material, &camera, &[light], &options)
+        }
+        None => {
+            let material = render::material::Albedo { texture: &texture, normal_map: Some(&m.normal) };
+            render::render(&m.mesh, Some(&m.tangents), &material, &camera, &[light], &options)
+        }
+    };
     super::output::encode_image(&to_file_space(&img, ColorSpace::Linear, s.format), s.format)
 }
 

@@ -59,6 +59,30 @@ impl Image {
         self.data[i] = v;
     }
 
+    /// The channels of `images` (all of the first one's size) one after the other.
+    pub fn stacked(images: &[&Image]) -> Image {
+        let (width, height) = images.first().map_or((0, 0), |i| (i.width, i.height));
+        assert!(images.iter().all(|i| (i.width, i.height) == (width, height)), "stacked images differ in size");
+        let data = images.iter().flat_map(|i| i.data.iter().copied()).collect();
+        Image { width, height, channels: images.iter().map(|i| i.channels).sum(), data }
+    }
+
+    /// The inverse of [`Image::stacked`]: images of `counts` channels each, in order (channels
+    /// beyond the counts' sum are dropped).
+    pub fn split(&self, counts: &[usize]) -> Vec<Image> {
+        let n = self.plane_len();
+        let mut at = 0;
+        counts
+            .iter()
+            .map(|&k| {
+                let k = k.min(self.channels - at.min(self.channels));
+                let data = self.data[at * n..(at + k) * n].to_vec();
+                at += k;
+                Image { width: self.width, height: self.height, channels: k, data }
+            })
+            .collect()
+    }
+
     pub fn same_size(&self, other: &Image) -> bool {
         self.width == other.width && self.height == other.height
     }

@@ -153,3 +153,17 @@ pub fn texture_seams(
     }
     Ok(Textured { mesh, texture: combined, face_triangles })
 }
+
+/// A map of the colour texture's size laid out as the combined texture of [`texture_seams`]
+/// (`texture`): on top, its last row and column repeated once (the gutter), `flat` under the
+/// seam atlas. Without an atlas (`texture` the colour texture itself) it is `map`.
+pub fn beside_seams(map: &Image, texture: &Image, flat: &[f32]) -> Image {
+    let (w, h) = (map.width, map.height);
+    Image::from_fn(texture.width, texture.height, map.channels, |x, y, c| {
+        if x <= w && y <= h && w > 0 && h > 0 {
+            map.get(x.min(w - 1), y.min(h - 1), c)
+        } else {
+            flat[c]
+        }
+    })
+}

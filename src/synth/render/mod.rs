@@ -1,6 +1,6 @@
 //! A deterministic CPU renderer for previews and golden images: a [`TriMesh`] seen through a
 //! [`Camera`], lit by [`DirectionalLight`]s (optionally shadowed), shaded by a caller-chosen
-//! [`Material`].
+//! [`Material`]: textured Lambert ([`Albedo`]) or a relightable representation ([`Relit`]).
 //!
 //! **Design.** A visibility buffer: triangles are rasterised in tiles (`tiles`) keeping, per
 //! sample, only the nearest triangle's index; each visible sample is then shaded exactly once,
@@ -19,6 +19,7 @@
 
 pub mod camera;
 pub mod material;
+pub mod relit;
 pub mod shadow;
 pub mod tiles;
 
@@ -27,6 +28,7 @@ mod tests;
 
 pub use camera::{Camera, Projection, ProjectionKind};
 pub use material::{sample_rgb, sample_wrap, Albedo, DirectionalLight, Fragment, LightSample, Material};
+pub use relit::Relit;
 pub use shadow::ShadowMap;
 
 use crate::raster::Image;

@@ -354,3 +354,93 @@ fn triangle_keys_are_indices() {
     let ids: Vec<u32> = ids.into_iter().flatten().collect();
     assert!(!ids.is_empty() && ids.iter().all(|&i| i == 0));
 }
+
+/// Uniform Gradient maps `(p, q, al)` on a mesh, relit: each fragment's light goes into its
+/// tangent frame, array y being −v.
+fn gradient_maps(p: f32, q: f32, al: f32) -> Image {
+    Image::from_fn(4, 4, 3, |_, _, c| [p, q, al][c])
+}
+
+#[test]
+fn relit_flat_quad_with_uv_xy_is_the_representation_relit_at_the_world_light() {
+    use crate::synth::relight::{Basis, Light};
+    let mesh = quad(-1.0, -1.0, 1.0, 1.0, 0.0);
+    let camera = Camera::perspective(Vec3::new(0.2, 0.1, 3.0), Vec3::ZERO, Vec3::Y, 40.0);
+    let l = Vec3::new(0.5, 0.3, 0.8).normalize();
+    // PTM: an arbitrary polynomial, not symmetric in x and y, so a frame error shows.
+    let coef = [0.1f32, -0.2, 0.3, 0.25, -0.4, 0.6];
+    let maps = Image::from_fn(4, 4, 6, |_, _, c| coef[c]);
+    let basis = Basis::Ptm;
+    let material = super::Relit::new(&maps, None, &basis).unwrap();
+    let img = render(&mesh, None, &material, &camera, &[DirectionalLight::white(l)], &opts(40, 40));
+    // The array frame: rows grow downward, so the light's y flips.
+    let light = Light::from_vector(glam::DVec3::new(l.x.into(), (-l.y).into(), l.z.into()));
+    let want = basis.kernel(&light).unwrap().apply(&coef.map(f64::from)) as f32;
+    let got = img.get(20, 20, 0);
+    assert!((got - want).abs() < 1e-5, "{got} vs {want}");
+    // A light below the surface adds nothing; the ambient light scales the overhead relighting.
+    let below = DirectionalLight::white(Vec3::new(0.3, 0.2, -0.9));
+    let img = render(&mesh, None, &material, &camera, &[below], &RenderOptions { ambient: [0.5; 3], ..opts(40, 40) });
+    let overhead = basis.kernel(&Light::new(0.0, 0.0)).unwrap().apply(&coef.map(f64::from)) as f32;
+    assert!((img.get(20, 20, 0) - 0.5 * overhead).abs() < 1e-5);
+}
+
+#[test]
+fn relit_quad_with_rotated_uvs_turns_the_light_with_them() {
+    use crate::synth::relight::represent::lambert;
+    use crate::synth::relight::Basis;
+    // uv = (y, −x): t = +y, b = −x, so a world light (x, y, z) is (y, −x, z) in the tangent
+    // frame and (y, x, z) in the array frame.
+    let mut mesh = quad(-1.0, -1.0, 1.0, 1.0, 0.0);
+    for (uv, p) in mesh.uvs.iter_mut().zip(&mesh.positions) {
+        *uv = Vec2::new(p.y, -p.x);
+    }
+    let camera = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 40.0);
+    let (p, q, al) = (0.7f32, -0.3f32, 0.8f32);
+    let maps = gradient_maps(p, q, al);
+    let basis = Basis::Gradient;
+    let material = super::Relit::new(&maps, None, &basis).unwrap();
+    for l in [Vec3::new(0.6, 0.1, 0.8), Vec3::new(-0.2, 0.7, 0.6), Vec3::new(0.1, -0.5, 0.9)] {
+        let l = l.normalize();
+        let img = render(&mesh, None, &material, &camera, &[DirectionalLight::white(l)], &opts(32, 32));
+        let array = glam::DVec3::new(l.y.into(), l.x.into(), l.z.into());
+        let want = lambert(p.into(), q.into(), al.into(), array).max(0.0) as f32;
+        assert!((img.get(16, 16, 0) - want).abs() < 1e-5, "{l}: {} vs {want}", img.get(16, 16, 0));
+    }
+}
+
+#[test]
+fn relit_gradient_maps_shade_as_the_equivalent_normal_map_on_a_curved_mesh() {
+    use crate::synth::relight::Basis;
+    // Gradient maps (p, q, al) are the array-frame normal normalise(−p, −q, 1), which is the
+    // tangent-frame normal normalise(−p, q, 1): the Lambert material with that normal map
+    // must agree fragment for fragment, on a mesh whose frames turn everywhere.
+    let mesh = bumpy_grid(24);
+    let camera = Camera::framing(mesh.bounds().unwrap(), -30.0, 50.0, 40.0);
+    let light = DirectionalLight::white(Vec3::new(0.2, -0.3, 0.9));
+    for (p, q) in [(0.0f32, 0.0f32), (0.5, -0.2), (-0.4, 0.6)] {
+        let al = 0.7;
+        let maps = gradient_maps(p, q, al);
+        let basis = Basis::Gradient;
+        let relit = super::Relit::new(&maps, None, &basis).unwrap();
+        let n = Vec3::new(-p, q, 1.0).normalize();
+        let normal_map = Image::from_fn(4, 4, 3, |_, _, c| n[c] * 0.5 + 0.5);
+        let texture = Image::filled(4, 4, 3, al);
+        let lambert = Albedo { texture: &texture, normal_map: Some(&normal_map) };
+        let o = opts(64, 64);
+        let a = render(&mesh, None, &relit, &camera, &[light], &o);
+        let b = render(&mesh, None, &lambert, &camera, &[light], &o);
+        assert!(covered(&a) > 1000);
+        let worst = a.data.iter().zip(&b.data).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+        assert!(worst < 1e-4, "({p}, {q}): worst difference {worst}");
+    }
+}
+
+#[test]
+fn relit_refuses_maps_that_do_not_match_the_basis() {
+    use crate::synth::relight::Basis;
+    let maps = Image::filled(4, 4, 3, 0.5);
+    assert!(super::Relit::new(&maps, None, &Basis::Ptm).is_err());
+    let chroma = Image::filled(3, 4, 3, 1.0);
+    assert!(super::Relit::new(&maps, Some(&chroma), &Basis::Gradient).is_err());
+}

@@ -58,6 +58,17 @@ impl Basis {
     }
 }
 
+impl Kernel {
+    /// One pixel relit: `maps` holds its channels in order (as many as the basis has).
+    #[inline]
+    pub fn apply(&self, maps: &[f64]) -> f64 {
+        match self {
+            Kernel::Linear(coef) => coef.iter().zip(maps).map(|(c, v)| c * v).sum(),
+            Kernel::Lambert(l) => lambert(maps[0], maps[1], maps[2], *l),
+        }
+    }
+}
+
 impl Representation {
     pub fn channels(&self) -> usize {
         self.basis.channels()
