@@ -10,6 +10,7 @@ mod library;
 mod map;
 mod model;
 mod output;
+mod procedural;
 mod representation;
 mod sample;
 mod scene;
@@ -62,6 +63,7 @@ pub static KINDS: &[&dyn Kind] = &[
     &surface::Surface,
     &structure::Structure,
     &appearance::Appearance,
+    &procedural::ProceduralKind,
     &layer::Layer,
     &library::Library,
     &model::ModelKind,

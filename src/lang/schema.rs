@@ -75,6 +75,8 @@ pub enum Value {
     Patch,
     /// A relieved mesh: displaced geometry and its texture.
     Model,
+    /// A procedural texture fitted by example: its parameters.
+    Procedural,
 }
 
 impl Value {
@@ -89,6 +91,7 @@ impl Value {
             Value::Capture => "a photometric capture",
             Value::Patch => "a patch (a sample with a `height` layer)",
             Value::Model => "a model",
+            Value::Procedural => "a procedural texture",
         }
     }
 }

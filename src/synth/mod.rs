@@ -6,6 +6,7 @@ pub mod library;
 pub mod map;
 pub mod mesh;
 pub mod metrics;
+pub mod noise;
 pub mod progress;
 pub mod quilt;
 pub mod relief;

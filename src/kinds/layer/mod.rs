@@ -1,10 +1,12 @@
-//! `layer`: image quilting of a sample onto a surface, and gradient-domain blending of
-//! layers under a mask.
+//! `layer`: image quilting of a sample onto a surface, gradient-domain blending of layers
+//! under a mask, and evaluation of a procedural texture.
 //!
 //! ```text
 //! sample, [mix], [surface], [orientation], [density], [guide] ─► layer.quilt ─► layer.image
 //!                                                                     └─► layer.seams (seams = gradient)
 //! sources…, mask ─► layer.blend
+//! procedural, [morph, morph_by] ─► layer.procedural (evaluation: `procedural.rs`)
+//! sample ─► layer.tiling_prepare ─► layer.tiling (histogram-preserving blending: `tiling.rs`)
 //! ```
 //!
 //! The quilt stage keeps its whole result (index map, seams, block records), so a change
@@ -25,8 +27,10 @@ use crate::synth::quilt::{
 use crate::synth::surface::Plane;
 use crate::synth::Progress;
 
+pub(super) mod procedural;
 mod relief;
 mod spec;
+mod tiling;
 pub use spec::SPEC;
 
 /// The inputs of a quilt stage: the sample, and those the declaration names.
@@ -56,6 +60,41 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
                 ));
         }
     }
+    if let Some(texture) = props.reference("procedural") {
+        if let Some((key, span)) = ["quilt", "blend"].iter().find_map(|k| Some((*k, props.span(k)?))) {
+            return Err(Diagnostic::error(format!(
+                "layer `{}` is evaluated from a procedural texture: `{key}` does not apply",
+                d.name
+            ))
+            .with_code("tessera::layer")
+            .with_label(span, "remove this"));
+        }
+        return procedural::plan(p, d, texture);
+    }
+    if let Some(sample) = props.reference("tiling") {
+        if let Some((key, span)) = ["quilt", "blend"].iter().find_map(|k| Some((*k, props.span(k)?))) {
+            return Err(Diagnostic::error(format!("layer `{}` tiles a sample: `{key}` does not apply", d.name))
+                .with_code("tessera::layer")
+                .with_label(span, "remove this"));
+        }
+        if let Some(span) = ["band_gain", "solid", "slice", "morph", "morph_by"].iter().find_map(|k| props.span(k)) {
+            return Err(Diagnostic::error("this property applies only to layers evaluated from a procedural texture")
+                .with_code("tessera::layer")
+                .with_label(span, "remove this"));
+        }
+        return tiling::plan(p, d, sample);
+    }
+    if let Some(span) = tiling::PROPS.iter().find_map(|k| props.span(k)) {
+        return Err(Diagnostic::error("this property applies only to layers made with `tiling = SAMPLE`")
+            .with_code("tessera::layer")
+            .with_label(span, "remove this"));
+    }
+    if let Some(span) = procedural::PROPS.iter().find_map(|k| props.span(k)) {
+        return Err(Diagnostic::error("this property applies only to layers evaluated from a procedural texture")
+            .with_code("tessera::layer")
+            .with_label(span, "remove this")
+            .with_help("`zoom`, `origin`, `band_gain`, `solid`, `slice`, `morph` and `morph_by` shape a layer made with `procedural = TEXTURE`"));
+    }
     match (props.reference("quilt"), props.get("blend")) {
         (Some(sample), None) => plan_quilt(p, d, sample),
         (None, Some(_)) => plan_blend(p, d),
@@ -66,7 +105,10 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
         (None, None) => {
             Err(Diagnostic::error(format!("layer `{}` says neither what to quilt nor what to blend", d.name))
                 .with_code("tessera::missing_property")
-                .with_label(d.name_span, "give it `quilt = SAMPLE`, `blend = [A, B]` or `relief = [PATCH, …]`"))
+                .with_label(
+                    d.name_span,
+                    "give it `quilt = SAMPLE`, `blend = [A, B]`, `relief = [PATCH, …]` or `procedural = TEXTURE`",
+                ))
         }
     }
 }
@@ -77,7 +119,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
 const QUILT_BYTES_PER_PIXEL: f64 = 128.0;
 
 /// The size of a quilted layer and where it was set: its surface's plane, or the scene size.
-fn quilt_size(p: &Planner, d: &Decl) -> ((usize, usize), Option<Span>) {
+pub(super) fn quilt_size(p: &Planner, d: &Decl) -> ((usize, usize), Option<Span>) {
     match d.props.reference("on") {
         Some(s) => p.plane(s),
         None => ((p.scene.size.0 as usize, p.scene.size.1 as usize), None),
@@ -96,7 +138,11 @@ impl super::Kind for Layer {
         let node = plan(p, d)?.erase();
         // A layer's values are in the colour space of the image it grows from (blends:
         // their first source's).
-        let source = match d.props.reference("quilt") {
+        if let Some(texture) = d.props.reference("procedural") {
+            p.export(d).image = Some(super::procedural::color_space(p, texture));
+            return Ok(Some(node));
+        }
+        let source = match d.props.reference("quilt").or(d.props.reference("tiling")) {
             Some(s) => s.to_string(),
             // Guided by an appearance, the colour is the appearance's.
             None if d.props.get("relief").is_some() => match d.props.reference("guide") {

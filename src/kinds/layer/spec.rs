@@ -37,6 +37,13 @@ crate::choices!(pub SEAM_GUIDANCE: blend::Seam {
     "insert" => blend::Seam::Insert, "average" => blend::Seam::Average, "zero" => blend::Seam::Zero
 });
 
+crate::choices!(
+    /// `grid` of a tiling layer.
+    pub GRIDS: crate::synth::noise::tiling::Grid {
+        "triangle" => crate::synth::noise::tiling::Grid::Triangle, "hex" => crate::synth::noise::tiling::Grid::Hex
+    }
+);
+
 const fn prop(name: &'static str, ty: Ty, default: Default, doc: &'static str) -> PropSpec {
     PropSpec { name, ty, default, doc }
 }
@@ -59,12 +66,27 @@ static SOLVER: &[PropSpec] = &[
 
 pub static SPEC: KindSpec = KindSpec {
     name: "layer",
-    doc: "A synthesised image layer: a sample grown onto a surface by image quilting (`quilt = ...`), colour and depth grown from patches under a guide (`relief = [...]`), or layers blended under a mask in the gradient domain (`blend = [...]`). Give exactly one of `quilt`, `relief` and `blend`.",
+    doc: "A synthesised image layer: a sample grown onto a surface by image quilting (`quilt = ...`), colour and depth grown from patches under a guide (`relief = [...]`), layers blended under a mask in the gradient domain (`blend = [...]`), or a procedural texture evaluated (`procedural = …`), or a sample tiled and blended with its histogram kept (`tiling = …`). Give exactly one of `quilt`, `relief`, `blend`, `procedural` and `tiling`.",
     naming: Naming::Ident,
     produces: &[Value::Image],
     settings: &[],
     extent: Extent::Ref("on"),
     props: &[
+        // Procedural textures (Lagae et al.).
+        prop("procedural", Ty::Ref(&[Value::Procedural]), Default::Absent, "Evaluate this procedural texture (a `procedural`): every pixel on its own, at any size, no sample needed."),
+        prop("zoom", Ty::Number(Unit::Plain, Range { min: 1e-4, max: 1e6 }), Default::Text("1"), "With `procedural`: layer pixels per sample pixel (8: the texture seen 8× closer, 0.125: 8× farther, antialiased by dropping the bands finer than a pixel)."),
+        prop("origin", Ty::Vec2(Unit::Plain), Default::Text("[0, 0]"), "With `procedural`: where the layer's top-left corner lies, in sample widths (any window of the infinite texture)."),
+        prop("band_gain", Ty::Numbers(Unit::Plain, Range { min: 0.0, max: 1000.0 }), Default::Absent, "With `procedural`: a gain per band from band 2 (the coarsest) upward, multiplying its weight in every channel; missing bands keep gain 1 (the paper's Fig. 11(d) edit)."),
+        prop("solid", Ty::Bool, Default::Text("false"), "With `procedural`: evaluate the solid texture (3-D noise bands), sliced by the plane at depth `slice`: for surfaces without UVs."),
+        prop("slice", Ty::Number(Unit::Plain, Range { min: -1e6, max: 1e6 }), Default::Text("0"), "With `solid`: the depth of the slice, in sample widths."),
+        prop("morph", Ty::Ref(&[Value::Procedural]), Default::Absent, "With `procedural`: a second procedural texture to morph toward (PCA axes matched and slerped, weights and curves interpolated)."),
+        prop("morph_by", Ty::Ref(&[Value::Map]), Default::Absent, "With `morph`: the map whose value is the morph parameter at each pixel (0: `procedural`, 1: `morph`), read at the same relative position."),
+        // Histogram-preserving tiling and blending (Heitz & Neyret; Mikkelsen's hex tiles).
+        prop("tiling", Ty::Ref(&[Value::Image]), Default::Absent, "Lay this sample on a random lattice of cells, each showing it at a random offset, blended so that the sample's histogram survives (Heitz & Neyret 2018): every pixel on its own, no visible period, for textures that are not isotropic noise. `zoom` and `origin` apply as with `procedural`."),
+        prop("grid", Ty::Enum(GRIDS.names), Default::Text("triangle"), "With `tiling`: `triangle` (Heitz & Neyret's simplex lattice, three cells blended at each point) or `hex` (Mikkelsen's hexagonal tiles, sharper blends)."),
+        prop("cell", Ty::Number(Unit::Plain, Range { min: 1e-3, max: 1e3 }), Default::Text("0.25"), "With `tiling`: the lattice spacing, in sample widths."),
+        prop("contrast", Ty::Number(Unit::Fraction, Range { min: 0.0, max: 1.0 }), Default::Text("0.5"), "With `grid = hex`: how sharply neighbouring tiles blend (Mikkelsen's contrast; 0 and 1 excluded)."),
+        prop("cell_rotation", Ty::Number(Unit::Angle, Range { min: 0.0, max: 3.2 }), Default::Text("0 deg"), "With `tiling`: each cell turns its sample by a random angle up to this."),
         // Quilting (Efros–Freeman, with Dong's and Frasson's extensions).
         prop("quilt", Ty::Ref(&[Value::Image]), Default::Absent, "Grow this image (a sample, another layer, or a `representation`, whose maps are cut and pasted together and relit) by image quilting."),
         prop(

@@ -20,7 +20,7 @@ pub static SPEC: KindSpec = KindSpec {
     props: &[
         PropSpec {
             name: "from",
-            ty: Ty::Ref(&[Value::Map, Value::Image, Value::Plane, Value::Structure, Value::Model]),
+            ty: Ty::Ref(&[Value::Map, Value::Image, Value::Plane, Value::Structure, Value::Model, Value::Procedural]),
             default: Default::Required,
             doc: "What to write. Maps are written as data; 2-channel orientation fields as RGB (x, y → R, G); samples and layers in sRGB (EXR: linear); surfaces as their occupancy; structures as `view` says. A `.json` output of a sample chosen by `similar(...)` writes the ranking.",
         },
@@ -177,12 +177,14 @@ pub enum OutputFormat {
     Obj,
     /// glTF 2.0 binary (models).
     Glb,
+    /// TOML text (a procedural texture's parameters).
+    Toml,
 }
 
 impl OutputFormat {
     /// Text formats are compared number by number, not pixel by pixel.
     pub fn is_text(self) -> bool {
-        matches!(self, OutputFormat::Json | OutputFormat::Svg | OutputFormat::Obj)
+        matches!(self, OutputFormat::Json | OutputFormat::Svg | OutputFormat::Obj | OutputFormat::Toml)
     }
 }
 
@@ -249,6 +251,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
         (Format::PtmRgb, "ptm") => OutputFormat::Ptm(PtmFormat::Rgb),
         (Format::Auto, "obj") => OutputFormat::Obj,
         (Format::Auto, "glb") => OutputFormat::Glb,
+        (Format::Auto, "toml") => OutputFormat::Toml,
         (f, e) => {
             let span = d.props.span("format").unwrap_or(d.name_span);
             return Err(Diagnostic::error(if f == Format::Auto {
@@ -258,7 +261,9 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
             })
             .with_code("tessera::output_format")
             .with_label(span, "here")
-            .with_help("outputs are `.png` (8- or 16-bit), `.exr`, `.json`, `.svg`, `.ptm`, `.obj` or `.glb` files"));
+            .with_help(
+                "outputs are `.png` (8- or 16-bit), `.exr`, `.json`, `.svg`, `.ptm`, `.obj`, `.glb` or `.toml` files",
+            ));
         }
     };
     let name = crate::graph::files::normal_relative(&d.name).map_err(|problem| {
@@ -349,7 +354,12 @@ pub(crate) fn encode_image(img: &Image, format: OutputFormat) -> Result<Bytes, S
         OutputFormat::Png8 => raster::io::encode_png(img, 8),
         OutputFormat::Png16 => raster::io::encode_png(img, 16),
         OutputFormat::Exr => raster::io::encode_exr(img),
-        OutputFormat::Json | OutputFormat::Svg | OutputFormat::Ptm(_) | OutputFormat::Obj | OutputFormat::Glb => {
+        OutputFormat::Json
+        | OutputFormat::Svg
+        | OutputFormat::Ptm(_)
+        | OutputFormat::Obj
+        | OutputFormat::Glb
+        | OutputFormat::Toml => {
             return Err(StageError::new("this output is not an image file: name it `.png` or `.exr`"))
         }
     }

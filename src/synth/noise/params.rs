@@ -1,0 +1,461 @@
+//! The fitted procedural texture [references: lagae §7]: the analysis that turns one photo of an
+//! isotropic stochastic texture into a handful of numbers (the mean, the PCA transform, per
+//! decorrelated channel the band weights of multiresolution wavelet noise and the knots of an
+//! inverse-CDF curve), and the parameter file that holds them.
+//!
+//! The file is the artifact users version and edit: TOML, one table per channel, every number
+//! written in its shortest exact form, so the same sample and options give the same bytes and a
+//! file read back is the parameter set that was written. Metadata (the noise version, seed,
+//! tile size and sample size) says which noise the numbers drive; the paper does not count it.
+
+use serde::{Deserialize, Serialize};
+
+use super::colour::{pca, ColourMode, Pca};
+use super::marginal::{gaussianize, needs_histogram, Abscissa, Curve};
+use super::spectrum::{self, BandPowers, Border};
+use super::tile::{self, Tile};
+use super::NoiseError;
+use crate::raster::Image;
+
+/// Changes whenever the noise a parameter set drives changes (tile generation, offsets, bands).
+pub const NOISE_VERSION: u32 = 1;
+
+/// When the histogram curve is fitted (proposal 9; the paper decides per example).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HistogramMode {
+    On,
+    Off,
+    /// On when the channel is measurably non-Gaussian.
+    Auto,
+}
+
+/// How band weights are estimated from band powers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Estimator {
+    /// Eq. 9, each band on its own.
+    Paper,
+    /// Non-negative least squares against the simulated leakage between bands.
+    Nnls,
+}
+
+/// Everything the analysis is told.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FitOptions {
+    pub colour: ColourMode,
+    pub histogram: HistogramMode,
+    pub knots: usize,
+    pub abscissa: Abscissa,
+    pub estimator: Estimator,
+    pub border: Border,
+    /// Side of the 2-D noise tile (lattice cells).
+    pub tile: usize,
+    pub seed: u64,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            colour: ColourMode::Pca,
+            histogram: HistogramMode::Auto,
+            knots: super::marginal::DEFAULT_KNOTS,
+            abscissa: Abscissa::Quantile,
+            estimator: Estimator::Paper,
+            border: Border::None,
+            tile: 256,
+            seed: 0,
+        }
+    }
+}
+
+/// One decorrelated channel: the weights of bands `2..` and, if fitted, its histogram curve.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Channel {
+    pub weights: Vec<f64>,
+    pub curve: Option<Curve>,
+}
+
+/// A parameter set: `colour = U·v + mean`, each `v_c` multiresolution wavelet noise (eq. 1)
+/// mapped through its curve.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Procedural {
+    pub noise_version: u32,
+    pub seed: u64,
+    pub tile: usize,
+    /// Side of the (cropped) sample: its bands are `2..=log2(sample_size)`.
+    pub sample_size: usize,
+    pub colour: ColourMode,
+    pub mean: [f64; 3],
+    /// Columns `u[c]` of U (the identity in the RGB modes).
+    pub u: [[f64; 3]; 3],
+    pub channels: [Channel; 3],
+}
+
+/// What the analysis found besides the parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fitted {
+    pub params: Procedural,
+    /// The band powers each channel's weights were estimated from.
+    pub powers: Vec<BandPowers>,
+    /// The max/min power ratio over angular sectors (above [`spectrum::ANISOTROPY_LIMIT`] the
+    /// sample is not isotropic and the fit loses its structure).
+    pub anisotropy: f64,
+    /// `(width, height)` of the input when it was cropped to a power-of-two square.
+    pub cropped_from: Option<(usize, usize)>,
+}
+
+impl Procedural {
+    /// The number of fitted numbers (the paper's count: mean, transform, weights, knots).
+    pub fn count(&self) -> usize {
+        12 + self
+            .channels
+            .iter()
+            .map(|c| c.weights.len() + c.curve.as_ref().map_or(0, |k| k.knots.len()))
+            .sum::<usize>()
+    }
+
+    /// The bands the weights stand for: `2..=log2(sample_size)`.
+    pub fn bands(&self) -> Vec<u32> {
+        (2..2 + self.channels[0].weights.len() as u32).collect()
+    }
+}
+
+/// The sample's channels as three planes (grey repeated, alpha dropped).
+fn rgb_planes(img: &Image) -> Result<[Vec<f64>; 3], NoiseError> {
+    if img.channels == 0 || img.width == 0 || img.height == 0 {
+        return Err(NoiseError::Sample("the sample has no pixels".into()));
+    }
+    let plane =
+        |c: usize| img.plane(c.min(img.channels.min(3) - 1)).iter().map(|&v| f64::from(v)).collect::<Vec<f64>>();
+    let planes = [plane(0), plane(1), plane(2)];
+    if planes.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(NoiseError::Sample("the sample holds values that are not finite".into()));
+    }
+    Ok(planes)
+}
+
+/// Fits a parameter set to `img` (proposal 4: a sample that is not a power-of-two square is
+/// cropped to its largest centred one; the caller warns).
+pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
+    if !(2..=256).contains(&opts.knots) {
+        return Err(NoiseError::Options(format!("{} histogram knots: between 2 and 256", opts.knots)));
+    }
+    let planes = rgb_planes(img)?;
+    let (w, h) = (img.width, img.height);
+    let mut cropped = Vec::with_capacity(3);
+    let mut n = 0;
+    for p in &planes {
+        let (c, side) = spectrum::pow2_crop(p, w, h)?;
+        n = side;
+        cropped.push(c);
+    }
+    let cropped_from = (w != n || h != n).then_some((w, h));
+    let m = n * n;
+    let (mean, u, decorrelated) = match opts.colour {
+        ColourMode::Pca => {
+            let pca: Pca = pca(&cropped[0], &cropped[1], &cropped[2])?;
+            let mut out = vec![vec![0.0; m]; 3];
+            for i in 0..m {
+                let v = pca.decorrelate([cropped[0][i], cropped[1][i], cropped[2][i]]);
+                for c in 0..3 {
+                    out[c][i] = v[c];
+                }
+            }
+            (pca.mean, pca.u, out)
+        }
+        ColourMode::RgbIndependent | ColourMode::RgbShared => {
+            let mean: [f64; 3] = std::array::from_fn(|c| cropped[c].iter().sum::<f64>() / m as f64);
+            let out = (0..3).map(|c| cropped[c].iter().map(|v| v - mean[c]).collect()).collect();
+            (mean, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], out)
+        }
+    };
+    let tile = tile::normalised(2, opts.tile, opts.seed, super::SIGMA_N2)?;
+    let leakage = match opts.estimator {
+        Estimator::Nnls => Some(leakage(&tile, n, opts.seed)?),
+        Estimator::Paper => None,
+    };
+    let mut powers = Vec::with_capacity(3);
+    let mut channels = Vec::with_capacity(3);
+    for values in &decorrelated {
+        let on = match opts.histogram {
+            HistogramMode::On => true,
+            HistogramMode::Off => false,
+            HistogramMode::Auto => needs_histogram(values),
+        };
+        let (gauss, curve) = if on {
+            let mean = values.iter().sum::<f64>() / values.len() as f64;
+            let curve = recentred(Curve::fit(values, opts.knots, opts.abscissa)?, mean);
+            (gaussianize(values)?.0, Some(curve))
+        } else {
+            (values.clone(), None)
+        };
+        let p = spectrum::band_powers_with(&gauss, n, opts.border)?;
+        let weights = match &leakage {
+            None => spectrum::weights_paper(&p, super::SIGMA_N2),
+            Some(k) => spectrum::weights_nnls(&p, k)?,
+        };
+        powers.push(p);
+        channels.push(Channel { weights, curve });
+    }
+    let luminance: Vec<f64> = (0..m).map(|i| (cropped[0][i] + cropped[1][i] + cropped[2][i]) / 3.0).collect();
+    let anisotropy = spectrum::anisotropy(&luminance, n)?;
+    let channels: [Channel; 3] = channels.try_into().map_err(|_| NoiseError::Sample("three channels".into()))?;
+    let params = Procedural {
+        noise_version: NOISE_VERSION,
+        seed: opts.seed,
+        tile: opts.tile,
+        sample_size: n,
+        colour: opts.colour,
+        mean,
+        u,
+        channels,
+    };
+    Ok(Fitted { params, powers, anisotropy, cropped_from })
+}
+
+/// `curve` shifted so that its mean, `∫ Q(u) du`, is `mean` (tessera's choice). A curve of a
+/// few knots misplaces the mass of a skewed channel's tail (the top interval spans a ninth of
+/// the probability at 10 knots), which would move the texture's mean colour by a few percent of
+/// its range; the shift keeps the shape, and with it the histogram match, and puts the mean back.
+fn recentred(mut curve: Curve, mean: f64) -> Curve {
+    const STEPS: usize = 4096;
+    let m = (0..STEPS).map(|i| curve.quantile((i as f64 + 0.5) / STEPS as f64)).sum::<f64>() / STEPS as f64;
+    let d = mean - m;
+    if d.is_finite() {
+        for k in &mut curve.knots {
+            *k += d;
+        }
+        curve.min += d;
+        curve.max += d;
+    }
+    curve
+}
+
+/// How many random band renders the leakage matrix averages.
+const LEAKAGE_SEEDS: usize = 4;
+
+/// The leakage matrix of this tile at sample size `n`, by simulation (each band alone, unit
+/// weight, at offsets drawn from the seed).
+pub fn leakage(tile: &Tile, n: usize, seed: u64) -> Result<Vec<Vec<f64>>, NoiseError> {
+    let k = spectrum::leakage_matrix(n, LEAKAGE_SEEDS, |band, s| {
+        let mut rng =
+            crate::synth::rng::Rng::new(crate::synth::rng::derive_seed(seed, "noise", &format!("leakage {band} {s}")));
+        let offset = [rng.range(0.0, tile.n as f64), rng.range(0.0, tile.n as f64)];
+        tile::render_band(tile, band, n, offset)
+    })?;
+    Ok(k)
+}
+
+// ---------------------------------------------------------------------------------------------
+// The parameter file.
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    noise_version: u32,
+    /// Hexadecimal: TOML integers stop at 2^63.
+    seed: String,
+    tile: usize,
+    sample_size: usize,
+    colour: ColourMode,
+    mean: [f64; 3],
+    /// Rows of U, as a reader writes a matrix.
+    transform: [[f64; 3]; 3],
+    channel: Vec<ChannelFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ChannelFile {
+    /// Band `2 + i`.
+    weights: Vec<f64>,
+    #[serde(default)]
+    histogram: Option<HistogramFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HistogramFile {
+    /// `quantile` (the paper's) when absent.
+    #[serde(default = "quantile")]
+    abscissa: Abscissa,
+    knots: Vec<f64>,
+    /// The clamp of a Gaussian-abscissa curve (a quantile curve clamps at its end knots).
+    #[serde(default)]
+    min: Option<f64>,
+    #[serde(default)]
+    max: Option<f64>,
+}
+
+/// `x` in its shortest exact form: decimal, or with an exponent where that is shorter.
+fn number(x: f64) -> String {
+    let (plain, exp) = (format!("{x:?}"), format!("{x:e}"));
+    if exp.len() < plain.len() {
+        exp
+    } else {
+        plain
+    }
+}
+
+fn quantile() -> Abscissa {
+    Abscissa::Quantile
+}
+
+const HEADER: &str = "# tessera: a procedural texture fitted by example (Lagae et al. 2009)\n";
+
+impl Procedural {
+    /// The parameter file's text. Written by hand rather than through the TOML serialiser,
+    /// which spells a tiny weight as forty decimal digits: every number here is its shortest
+    /// exact form, with an exponent where that is shorter (TOML reads both).
+    pub fn to_toml(&self) -> String {
+        use std::fmt::Write;
+        let list = |v: &[f64]| v.iter().map(|&x| number(x)).collect::<Vec<_>>().join(", ");
+        let mut out = String::from(HEADER);
+        let colour = match self.colour {
+            ColourMode::Pca => "pca",
+            ColourMode::RgbIndependent => "rgb_independent",
+            ColourMode::RgbShared => "rgb_shared",
+        };
+        let rows: Vec<String> =
+            (0..3).map(|r| format!("[{}]", list(&[self.u[0][r], self.u[1][r], self.u[2][r]]))).collect();
+        let _ = write!(
+            out,
+            "noise_version = {}\nseed = \"{:016x}\"\ntile = {}\nsample_size = {}\ncolour = \"{colour}\"\nmean = [{}]\ntransform = [{}]\n",
+            self.noise_version,
+            self.seed,
+            self.tile,
+            self.sample_size,
+            list(&self.mean),
+            rows.join(", ")
+        );
+        for c in &self.channels {
+            let _ = write!(out, "\n[[channel]]\nweights = [{}]\n", list(&c.weights));
+            if let Some(k) = &c.curve {
+                out.push_str("\n[channel.histogram]\n");
+                if k.abscissa == Abscissa::Gaussian {
+                    let _ = write!(out, "abscissa = \"gaussian\"\nmin = {}\nmax = {}\n", number(k.min), number(k.max));
+                }
+                let _ = writeln!(out, "knots = [{}]", list(&k.knots));
+            }
+        }
+        out
+    }
+
+    /// Reads a parameter file back, checking what evaluation relies on.
+    pub fn from_toml(text: &str) -> Result<Procedural, NoiseError> {
+        let file: File = toml::from_str(text).map_err(|e| NoiseError::File(e.to_string()))?;
+        let bad = |m: String| Err(NoiseError::File(m));
+        let Ok(seed) = u64::from_str_radix(&file.seed, 16) else {
+            return bad(format!("seed `{}`: up to 16 hexadecimal digits", file.seed));
+        };
+        if file.noise_version != NOISE_VERSION {
+            return bad(format!("noise_version {} (this tessera makes version {NOISE_VERSION})", file.noise_version));
+        }
+        if !file.sample_size.is_power_of_two() || !(16..=1 << 16).contains(&file.sample_size) {
+            return bad(format!("sample_size {}: a power of two from 16 to 65536", file.sample_size));
+        }
+        if file.tile % 2 != 0 || !(8..=1024).contains(&file.tile) {
+            return bad(format!("tile {}: even, from 8 to 1024", file.tile));
+        }
+        if file.channel.len() != 3 {
+            return bad(format!("{} [[channel]] tables: there are three", file.channel.len()));
+        }
+        let bands = file.sample_size.trailing_zeros() as usize - 1;
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if !finite(&file.mean) || !file.transform.iter().all(|r| finite(r)) {
+            return bad("the mean and the transform must be finite numbers".into());
+        }
+        let mut channels = Vec::with_capacity(3);
+        for (i, c) in file.channel.into_iter().enumerate() {
+            if c.weights.len() != bands || !finite(&c.weights) || c.weights.iter().any(|w| !(0.0..=1e6).contains(w)) {
+                return bad(format!(
+                    "channel {i}: {bands} weights (bands 2 to {}) between 0 and 1e6, not {:?}",
+                    bands + 1,
+                    c.weights
+                ));
+            }
+            let curve = match c.histogram {
+                None => None,
+                Some(h) => {
+                    if !(2..=256).contains(&h.knots.len()) || !finite(&h.knots) {
+                        return bad(format!("channel {i}: 2 to 256 finite knots"));
+                    }
+                    if h.knots.windows(2).any(|k| k[1] < k[0]) {
+                        return bad(format!("channel {i}: the knots must not decrease (a curve is monotone)"));
+                    }
+                    let (lo, hi) = (h.knots[0], h.knots[h.knots.len() - 1]);
+                    let (min, max) = match h.abscissa {
+                        Abscissa::Quantile => (lo, hi),
+                        Abscissa::Gaussian => (h.min.unwrap_or(lo), h.max.unwrap_or(hi)),
+                    };
+                    if !(min.is_finite() && max.is_finite() && min <= lo && hi <= max) {
+                        return bad(format!("channel {i}: min and max must enclose the knots"));
+                    }
+                    Some(Curve { abscissa: h.abscissa, knots: h.knots, min, max })
+                }
+            };
+            channels.push(Channel { weights: c.weights, curve });
+        }
+        let channels: [Channel; 3] = channels.try_into().map_err(|_| NoiseError::File("three channels".into()))?;
+        Ok(Procedural {
+            noise_version: file.noise_version,
+            seed,
+            tile: file.tile,
+            sample_size: file.sample_size,
+            colour: file.colour,
+            mean: file.mean,
+            u: std::array::from_fn(|c| std::array::from_fn(|r| file.transform[r][c])),
+            channels,
+        })
+    }
+
+    /// The set between `self` (t = 0) and `other` (t = 1), the paper's Fig. 15: everything
+    /// linear but the transform (its rotations slerped after `other`'s principal axes are
+    /// matched to `self`'s, by permutation and sign), the curves knot by knot. t = 0 is `self`
+    /// bit for bit; t = 1 is `other` with its axes so matched (bit for bit `other` when they
+    /// already are: a permuted or negated axis is the same texture, its channel's noise aside).
+    pub fn morph(&self, other: &Procedural, t: f64) -> Result<Procedural, NoiseError> {
+        if self.channels[0].weights.len() != other.channels[0].weights.len() {
+            return Err(NoiseError::Morph("the two textures were fitted at different sample sizes".into()));
+        }
+        if (self.colour == ColourMode::Pca) != (other.colour == ColourMode::Pca) {
+            return Err(NoiseError::Morph("one texture is in PCA colour, the other in RGB".into()));
+        }
+        if t == 0.0 {
+            return Ok(self.clone());
+        }
+        let (mean, u, order) = if self.colour == ColourMode::Pca {
+            let a = Pca { mean: self.mean, u: self.u, eigenvalues: [1.0; 3], flipped: [false; 3] };
+            let b = Pca { mean: other.mean, u: other.u, eigenvalues: [1.0; 3], flipped: [false; 3] };
+            let (m, order) = a.morph(&b, t);
+            (m.mean, m.u, order)
+        } else {
+            let mean = std::array::from_fn(|c| lerp(self.mean[c], other.mean[c], t));
+            (mean, self.u, [(0, false), (1, false), (2, false)])
+        };
+        let mut channels = Vec::with_capacity(3);
+        for (c, &(j, negate)) in order.iter().enumerate() {
+            let (a, b) = (&self.channels[c], &other.channels[j]);
+            let weights = a.weights.iter().zip(&b.weights).map(|(&x, &y)| lerp(x, y, t)).collect();
+            let b_curve = b.curve.as_ref().map(|k| if negate { k.negated() } else { k.clone() });
+            let curve = match (&a.curve, &b_curve) {
+                (None, None) => None,
+                (Some(_), Some(y)) if t == 1.0 => Some(y.clone()),
+                (Some(x), Some(y)) => Some(x.lerp(y, t)?),
+                _ => return Err(NoiseError::Morph("one texture has a histogram curve, the other none".into())),
+            };
+            channels.push(Channel { weights, curve });
+        }
+        let channels: [Channel; 3] = channels.try_into().map_err(|_| NoiseError::Morph("three channels".into()))?;
+        Ok(Procedural { mean, u, channels, ..self.clone() })
+    }
+}
+
+fn lerp(a: f64, b: f64, t: f64) -> f64 {
+    if t == 1.0 {
+        b
+    } else {
+        a + (b - a) * t
+    }
+}
