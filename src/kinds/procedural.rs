@@ -26,7 +26,7 @@ crate::choices!(COLOURS: ColourMode {
     "pca" => ColourMode::Pca, "rgb_independent" => ColourMode::RgbIndependent, "rgb_shared" => ColourMode::RgbShared
 });
 crate::choices!(HISTOGRAMS: HistogramMode { "auto" => HistogramMode::Auto, "on" => HistogramMode::On, "off" => HistogramMode::Off });
-crate::choices!(ABSCISSAS: Abscissa { "quantile" => Abscissa::Quantile, "gaussian" => Abscissa::Gaussian });
+crate::choices!(ABSCISSAS: Abscissa { "gaussian" => Abscissa::Gaussian, "quantile" => Abscissa::Quantile });
 crate::choices!(ESTIMATORS: Estimator { "paper" => Estimator::Paper, "nnls" => Estimator::Nnls });
 crate::choices!(BORDERS: Border { "none" => Border::None, "periodic_smooth" => Border::PeriodicSmooth });
 
@@ -43,7 +43,7 @@ pub static SPEC: KindSpec = KindSpec {
         PropSpec { name: "colour", ty: Ty::Enum(COLOURS.names), default: Default::Text("pca"), doc: "`pca`: channels decorrelated by PCA, each with its own noise (the paper's method); `rgb_independent`: R, G, B apart (false colours); `rgb_shared`: R, G, B on one noise (no colour variation)." },
         PropSpec { name: "histogram", ty: Ty::Enum(HISTOGRAMS.names), default: Default::Text("auto"), doc: "Match each channel's intensity distribution through an inverse-CDF curve: `on`, `off`, or `auto` (on where the channel is measurably not Gaussian: KS > 0.03, |skewness| > 0.3 or |excess kurtosis| > 0.5)." },
         PropSpec { name: "knots", ty: Ty::Int(2, 256), default: Default::Text("10"), doc: "Knots of each inverse-CDF curve." },
-        PropSpec { name: "abscissa", ty: Ty::Enum(ABSCISSAS.names), default: Default::Text("quantile"), doc: "Where the knots lie: `quantile` (uniform in probability, the paper) or `gaussian` (uniform in z over [−3, 3]: a closer fit for the same count)." },
+        PropSpec { name: "abscissa", ty: Ty::Enum(ABSCISSAS.names), default: Default::Text("gaussian"), doc: "Where the knots lie: `gaussian` (uniform in z over [−3, 3], clamped at the end knots: the same count of numbers, a far closer fit of skewed channels, and their mean kept) or `quantile` (uniform in probability, the paper's: its end intervals misplace a skewed tail, which moves the mean colour by a few percent of the range)." },
         PropSpec { name: "estimator", ty: Ty::Enum(ESTIMATORS.names), default: Default::Text("paper"), doc: "Band weights from band powers: `paper` (eq. 9, each band alone) or `nnls` (least squares against the simulated leakage between bands: closer for spectra that fall steeply)." },
         PropSpec { name: "border", ty: Ty::Enum(BORDERS.names), default: Default::Text("none"), doc: "`none` (the paper) or `periodic_smooth` (Moisan's decomposition: the sample's borders leak no power along the axes)." },
         PropSpec { name: "tile", ty: Ty::Int(8, 1024), default: Default::Text("256"), doc: "Side of the noise tile (even): a band repeats every tile / 2^b sample widths." },

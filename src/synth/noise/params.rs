@@ -60,7 +60,7 @@ impl Default for FitOptions {
             colour: ColourMode::Pca,
             histogram: HistogramMode::Auto,
             knots: super::marginal::DEFAULT_KNOTS,
-            abscissa: Abscissa::Quantile,
+            abscissa: Abscissa::Gaussian,
             estimator: Estimator::Paper,
             border: Border::None,
             tile: 256,
@@ -184,8 +184,13 @@ pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
             HistogramMode::Auto => needs_histogram(values),
         };
         let (gauss, curve) = if on {
-            let mean = values.iter().sum::<f64>() / values.len() as f64;
-            let curve = recentred(Curve::fit(values, opts.knots, opts.abscissa)?, mean);
+            let mut curve = Curve::fit(values, opts.knots, opts.abscissa)?;
+            // A Gaussian-abscissa curve clamps at its end knots (z = ±3: 0.13 % of each tail),
+            // so it costs no numbers beyond its knots, like the paper's.
+            if let (Some(&lo), Some(&hi)) = (curve.knots.first(), curve.knots.last()) {
+                curve.min = lo;
+                curve.max = hi;
+            }
             (gaussianize(values)?.0, Some(curve))
         } else {
             (values.clone(), None)
@@ -212,24 +217,6 @@ pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
         channels,
     };
     Ok(Fitted { params, powers, anisotropy, cropped_from })
-}
-
-/// `curve` shifted so that its mean, `∫ Q(u) du`, is `mean` (tessera's choice). A curve of a
-/// few knots misplaces the mass of a skewed channel's tail (the top interval spans a ninth of
-/// the probability at 10 knots), which would move the texture's mean colour by a few percent of
-/// its range; the shift keeps the shape, and with it the histogram match, and puts the mean back.
-fn recentred(mut curve: Curve, mean: f64) -> Curve {
-    const STEPS: usize = 4096;
-    let m = (0..STEPS).map(|i| curve.quantile((i as f64 + 0.5) / STEPS as f64)).sum::<f64>() / STEPS as f64;
-    let d = mean - m;
-    if d.is_finite() {
-        for k in &mut curve.knots {
-            *k += d;
-        }
-        curve.min += d;
-        curve.max += d;
-    }
-    curve
 }
 
 /// How many random band renders the leakage matrix averages.
@@ -334,7 +321,7 @@ impl Procedural {
             if let Some(k) = &c.curve {
                 out.push_str("\n[channel.histogram]\n");
                 if k.abscissa == Abscissa::Gaussian {
-                    let _ = write!(out, "abscissa = \"gaussian\"\nmin = {}\nmax = {}\n", number(k.min), number(k.max));
+                    out.push_str("abscissa = \"gaussian\"\n");
                 }
                 let _ = writeln!(out, "knots = [{}]", list(&k.knots));
             }
