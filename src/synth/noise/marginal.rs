@@ -668,7 +668,7 @@ impl Curve {
         }
     }
 
-    /// Q(u), the inverse CDF at u ∈ [0,1] (u outside is clamped; NaN gives NaN).
+    /// Q(u), the inverse CDF at u ∈ \[0, 1\] (u outside is clamped; NaN gives NaN).
     pub fn quantile(&self, u: f64) -> f64 {
         if u.is_nan() {
             return f64::NAN;
@@ -695,7 +695,7 @@ impl Curve {
     /// σ_d = 0 (or negative, or NaN) is `map` exactly.
     ///
     /// By 16-node Gauss–Hermite quadrature, except for a quantile-abscissa curve smoothed wider
-    /// than [`wide_smoothing`]: there T(x) = Q(Φ(x)) climbs most of its range in the two end
+    /// than `wide_smoothing`: there T(x) = Q(Φ(x)) climbs most of its range in the two end
     /// intervals, which stretch to ±∞ in x, and 16 Hermite nodes miss the mean by up to 1.3 % of
     /// the range (measured). That case integrates by parts in u instead,
     /// `E = Q(1) − ∫ Q′(u) P(Φ(X) ≤ u) du` with `P(Φ(X) ≤ u) = Φ((Φ⁻¹(u) − μ)/s)`, by

@@ -65,7 +65,7 @@ pub fn band_of(fi: i64, fj: i64) -> Option<u32> {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BandPowers {
     pub n: usize,
-    /// powers[k] is band b = k + 2, for b = 2..=log2 N.
+    /// `powers[k]` is band b = k + 2, for b = 2..=log2 N.
     pub powers: Vec<f64>,
     /// FFT elements per band, (2^b − 1)² − (2^{b−1} − 1)².
     pub counts: Vec<u64>,
@@ -242,7 +242,7 @@ pub fn weights_paper(p: &BandPowers, sigma_n2: f64) -> Vec<f64> {
     p.powers.iter().map(|&pb| (pb.max(0.0) / sigma_n2).sqrt()).collect()
 }
 
-/// The leakage matrix K[b'][b] (rows: measured band b' = 2..=log2 N; cols: source band b): expected
+/// The leakage matrix `K[b'][b]` (rows: measured band b' = 2..=log2 N; cols: source band b): expected
 /// power landing in annulus b' per unit weight² of source band b. Built by simulation: `render(b, s)`
 /// returns an N×N plane of one band with unit weight for seed index s; K is averaged over `seeds` renders.
 /// (The caller supplies the noise; this module knows nothing of tiles.)

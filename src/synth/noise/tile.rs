@@ -310,8 +310,8 @@ impl Tile {
     }
 }
 
-/// One band b rendered over the unit sample [0,1]² on an `size`×`size` grid of pixel centres
-/// ((i+0.5)/size): pixel (i, j) = eval2(2^b·(i+0.5)/size + offset[0], 2^b·(j+0.5)/size + offset[1]),
+/// One band b rendered over the unit sample \[0, 1\]² on an `size`×`size` grid of pixel centres
+/// ((i+0.5)/size): pixel (i, j) = `eval2(2^b·(i+0.5)/size + offset[0], 2^b·(j+0.5)/size + offset[1])`,
 /// row-major j*size + i. (The paper's eq. 1 band with the offset applied in lattice units.)
 ///
 /// Band b has lattice spacing 2^−b sample widths, so its content lies at [2^{b−2}, 2^{b−1})
