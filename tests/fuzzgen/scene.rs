@@ -108,8 +108,9 @@ pub fn generate(rng: &mut Rng) -> Generated {
             match spec.name {
                 "scene" | "sample" | "surface" => 1,
                 // Needs a photometric capture, which these samples are not; needs a mesh
-                // surface and a relief layer, which the relief tests build.
-                "representation" | "model" => 0,
+                // surface and a relief layer, which the relief tests build; needs a sample of
+                // 16² or more, which the pool's images rarely are (the procedural tests build it).
+                "representation" | "model" | "procedural" => 0,
                 "output" => 1 + rng.below(2),
                 "map" => 1 + rng.below(2),
                 _ => usize::from(rng.chance(0.3)),
@@ -241,10 +242,18 @@ fn props(rng: &mut Rng, specs: &[PropSpec], names: &Names, depth: usize, out: &m
                 _ => present,
             }
         } else if names.noise == 0.0
-            && matches!((kind, p.name), ("layer", "relief" | "terms" | "depth_blur") | ("surface", "mesh"))
+            && matches!(
+                (kind, p.name),
+                ("layer", "relief" | "terms" | "depth_blur")
+                    | ("surface", "mesh")
+                    | ("layer", "procedural" | "zoom")
+                    | ("layer", "origin" | "band_gain" | "solid" | "slice" | "morph" | "morph_by" | "tiling")
+                    | ("layer", "grid" | "cell" | "contrast" | "cell_rotation")
+            )
         {
-            // A relief layer needs patches and a mesh surface an OBJ file: the relief tests
-            // build those.
+            // A relief layer needs patches and a mesh surface an OBJ file, and a procedural or
+            // tiling layer is another mode of layer than the quilt these scenes build: the
+            // relief and procedural tests build those.
             false
         } else if names.noise == 0.0
             && kind == "output"
