@@ -11,7 +11,7 @@
 use rayon::prelude::*;
 
 use super::colour::ColourMode;
-use super::marginal::Curve;
+use super::marginal::{Curve, CurveTable};
 use super::params::Procedural;
 use super::tile::{self, Tile};
 use super::{NoiseError, SIGMA_N2};
@@ -64,6 +64,8 @@ pub struct Look {
     u: [[f64; 3]; 3],
     weights: [Vec<f64>; 3],
     curves: [Option<Curve>; 3],
+    /// Each curve's knot abscissae and slopes, worked out once.
+    tables: [CurveTable; 3],
     /// Eq. 2 per channel, with the gains.
     sigma_m: [f64; 3],
 }
@@ -76,7 +78,15 @@ impl Look {
             p.channels[c].weights.iter().enumerate().map(|(k, w)| w * gains.get(k).copied().unwrap_or(1.0)).collect()
         });
         let sigma_m = std::array::from_fn(|c| (SIGMA_N2 * weights[c].iter().map(|w| w * w).sum::<f64>()).sqrt());
-        Look { mean: p.mean, u: p.u, weights, curves: std::array::from_fn(|c| p.channels[c].curve.clone()), sigma_m }
+        let curves: [Option<Curve>; 3] = std::array::from_fn(|c| p.channels[c].curve.clone());
+        let tables = std::array::from_fn(|c| curves[c].as_ref().map_or_else(CurveTable::default, Curve::table));
+        Look { mean: p.mean, u: p.u, weights, curves, tables, sigma_m }
+    }
+
+    /// `U·v + mean`.
+    #[inline]
+    fn mix(&self, v: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|r| self.mean[r] + (0..3).map(|c| self.u[c][r] * v[c]).sum::<f64>())
     }
 
     pub fn bands(&self) -> usize {
@@ -93,47 +103,171 @@ pub fn alpha(band: u32, footprint: f64) -> f64 {
     (-footprint.log2() - f64::from(band) + 1.0).clamp(0.0, 1.0)
 }
 
+/// [`alpha`] of every band `2..2 + bands` under one footprint (the same numbers for every
+/// pixel of a render, so they are worked out once).
+fn alphas(footprint: f64, bands: usize) -> Vec<f64> {
+    (0..bands).map(|k| alpha(k as u32 + 2, footprint)).collect()
+}
+
 impl Noise {
     /// The colour at `x` (sample widths), for a pixel of `footprint` sample widths.
     pub fn eval(&self, look: &Look, x: [f64; 2], footprint: f64) -> [f64; 3] {
-        self.shade(look, footprint, |c, k, scale| {
-            let o = self.offsets[c][k];
-            self.tile.eval2(scale * x[0] + o[0], scale * x[1] + o[1])
+        self.eval_with(look, x, footprint, &alphas(footprint, look.bands()))
+    }
+
+    fn eval_with(&self, look: &Look, x: [f64; 2], footprint: f64, alphas: &[f64]) -> [f64; 3] {
+        self.shade(look, footprint, alphas, |c, k, scale| match self.offsets[c].get(k) {
+            Some(o) => self.tile.eval2(scale * x[0] + o[0], scale * x[1] + o[1]),
+            None => 0.0,
         })
     }
 
     /// The solid texture at `p` (sample widths); the plain 2-D texture when built without a
     /// solid tile.
     pub fn eval_solid(&self, look: &Look, p: [f64; 3], footprint: f64) -> [f64; 3] {
-        let Some(solid) = &self.solid else { return self.eval(look, [p[0], p[1]], footprint) };
-        self.shade(look, footprint, |c, k, scale| {
-            let o = self.offsets[c][k];
-            solid.eval3(scale * p[0] + o[0], scale * p[1] + o[1], scale * p[2] + o[2])
+        self.eval_solid_with(look, p, footprint, &alphas(footprint, look.bands()))
+    }
+
+    fn eval_solid_with(&self, look: &Look, p: [f64; 3], footprint: f64, alphas: &[f64]) -> [f64; 3] {
+        let Some(solid) = &self.solid else { return self.eval_with(look, [p[0], p[1]], footprint, alphas) };
+        self.shade(look, footprint, alphas, |c, k, scale| match self.offsets[c].get(k) {
+            Some(o) => solid.eval3(scale * p[0] + o[0], scale * p[1] + o[1], scale * p[2] + o[2]),
+            None => 0.0,
         })
     }
 
+    /// One row `j` of a plane render: each band's three tile rows are collapsed once for the
+    /// whole row ([`Tile::collapse_row`]), leaving three taps a pixel instead of nine, and each
+    /// band is evaluated along the row in a tight loop. Under one look for the whole row (no
+    /// morph map) the weighted sum of eq. 1 runs band by band too. The numbers are those of
+    /// [`Noise::eval`] bit for bit (the same operations in the same order), so a window
+    /// rendered alone (by either path) equals the same window of a larger render.
+    fn plane_row<'a>(
+        &self,
+        buf: &mut RowBuffers,
+        row: &mut [[f32; 3]],
+        j: usize,
+        (origin, pixel): ([f64; 2], f64),
+        alphas: &[f64],
+        look_at: &impl Fn(usize, usize) -> &'a Look,
+    ) {
+        let (n, bands, width) = (self.tile.n, self.offsets[0].len(), row.len());
+        let y = origin[1] + (j as f64 + 0.5) * pixel;
+        buf.collapsed.resize(n, 0.0);
+        buf.live.clear();
+        buf.live.resize(3 * bands, false);
+        let active = |k: usize| alphas.get(k).is_some_and(|&a| a > 0.0);
+        // Band k of channel c along the row into `out` (false where it reads nothing: zeros).
+        let band_row = |c: usize, k: usize, collapsed: &mut Vec<f64>, out: &mut [f64]| {
+            let b = k as u32 + 2;
+            let scale = f64::from(1u32 << b.min(31));
+            let [ox, oy, _] = self.offsets[c][k];
+            let live = self.tile.collapse_row(scale * y + oy, collapsed);
+            if live {
+                Tile::eval_collapsed_along(collapsed, (origin[0], pixel), scale, ox, out);
+            }
+            live
+        };
+        let first = look_at(0, j);
+        if (1..width).all(|i| std::ptr::eq(look_at(i, j), first)) {
+            let look = first;
+            buf.values.resize(width, 0.0);
+            buf.sums.resize(3 * width, 0.0);
+            for c in 0..3 {
+                let g = &mut buf.sums[c * width..][..width];
+                g.fill(0.0);
+                let mut dropped = 0.0;
+                for (k, &w) in look.weights[c].iter().enumerate() {
+                    let b = k as u32 + 2;
+                    let a = alphas.get(k).copied().unwrap_or_else(|| alpha(b, pixel));
+                    dropped += (1.0 - a * a) * w * w;
+                    if a > 0.0 && w != 0.0 {
+                        let aw = a * w;
+                        if k < bands && active(k) && band_row(c, k, &mut buf.collapsed, &mut buf.values) {
+                            for (g, v) in g.iter_mut().zip(&buf.values) {
+                                *g += aw * v;
+                            }
+                        } else {
+                            for g in g.iter_mut() {
+                                *g += aw * 0.0;
+                            }
+                        }
+                    }
+                }
+                let sigma_d = (SIGMA_N2 * dropped).sqrt();
+                if let Some(curve) = &look.curves[c] {
+                    for g in g.iter_mut() {
+                        *g = curve.map_smoothed_with(*g, look.sigma_m[c], sigma_d, &look.tables[c]);
+                    }
+                }
+            }
+            for (i, px) in row.iter_mut().enumerate() {
+                let v = [buf.sums[i], buf.sums[width + i], buf.sums[2 * width + i]];
+                *px = look.mix(v).map(|x| x as f32);
+            }
+            return;
+        }
+        buf.values.resize(3 * bands * width, 0.0);
+        for c in 0..3 {
+            for k in (0..bands).filter(|&k| active(k)) {
+                let at = c * bands + k;
+                buf.live[at] = band_row(c, k, &mut buf.collapsed, &mut buf.values[at * width..][..width]);
+            }
+        }
+        for (i, px) in row.iter_mut().enumerate() {
+            let look = look_at(i, j);
+            let colour = self.shade(look, pixel, alphas, |c, k, _| {
+                let at = c * bands + k;
+                if k < bands && buf.live[at] {
+                    buf.values[at * width + i]
+                } else {
+                    0.0
+                }
+            });
+            *px = colour.map(|x| x as f32);
+        }
+    }
+
     /// Eq. 1 per channel (bands a footprint clamps away are not evaluated), the histogram
-    /// back-mapping, then `U·v + mean`.
+    /// back-mapping, then `U·v + mean`. `alphas[k]` is band `k + 2`'s [`alpha`] under
+    /// `footprint`.
     #[inline]
-    fn shade(&self, look: &Look, footprint: f64, band: impl Fn(usize, usize, f64) -> f64) -> [f64; 3] {
+    fn shade(
+        &self,
+        look: &Look,
+        footprint: f64,
+        alphas: &[f64],
+        band: impl Fn(usize, usize, f64) -> f64,
+    ) -> [f64; 3] {
         let mut v = [0.0; 3];
         for (c, v) in v.iter_mut().enumerate() {
             let (mut g, mut dropped) = (0.0, 0.0);
             for (k, &w) in look.weights[c].iter().enumerate() {
                 let b = k as u32 + 2;
-                let a = alpha(b, footprint);
+                let a = alphas.get(k).copied().unwrap_or_else(|| alpha(b, footprint));
                 dropped += (1.0 - a * a) * w * w;
                 if a > 0.0 && w != 0.0 {
                     g += a * w * band(c, k, f64::from(1u32 << b.min(31)));
                 }
             }
             *v = match &look.curves[c] {
-                Some(curve) => curve.map_smoothed(g, look.sigma_m[c], (SIGMA_N2 * dropped).sqrt()),
+                Some(curve) => {
+                    curve.map_smoothed_with(g, look.sigma_m[c], (SIGMA_N2 * dropped).sqrt(), &look.tables[c])
+                }
                 None => g,
             };
         }
-        std::array::from_fn(|r| look.mean[r] + (0..3).map(|c| look.u[c][r] * v[c]).sum::<f64>())
+        look.mix(v)
     }
+}
+
+/// A render thread's scratch rows, kept from row to row.
+#[derive(Default)]
+struct RowBuffers {
+    collapsed: Vec<f64>,
+    values: Vec<f64>,
+    sums: Vec<f64>,
+    live: Vec<bool>,
 }
 
 /// Where the pixels of a render lie, in sample widths.
@@ -163,20 +297,32 @@ pub fn render<'a>(
     }
     let m = width * height;
     let mut rgb = vec![[0.0f32; 3]; m];
-    rgb.par_chunks_mut(width.max(1)).enumerate().for_each(|(j, row)| {
-        for (i, px) in row.iter_mut().enumerate() {
-            let look = look_at(i, j);
-            let (fi, fj) = (i as f64 + 0.5, j as f64 + 0.5);
-            let c = match domain {
-                Domain::Plane { origin, pixel } => {
-                    noise.eval(look, [origin[0] + fi * pixel, origin[1] + fj * pixel], pixel)
-                }
-                Domain::Slice { origin, u, v, pixel } => {
-                    let p = std::array::from_fn(|a| origin[a] + fi * pixel * u[a] + fj * pixel * v[a]);
-                    noise.eval_solid(look, p, pixel)
-                }
-            };
-            *px = c.map(|x| x as f32);
+    let pixel = match domain {
+        Domain::Plane { pixel, .. } | Domain::Slice { pixel, .. } => pixel,
+    };
+    let alphas = alphas(pixel, noise.offsets[0].len());
+    // Collapsing a row's tile rows costs about n/4 pixels' worth of taps per band: narrow
+    // windows evaluate point by point instead (the same numbers either way).
+    let collapse = width >= noise.tile.n / 4;
+    rgb.par_chunks_mut(width.max(1)).enumerate().for_each_init(RowBuffers::default, |buf, (j, row)| match domain {
+        Domain::Plane { origin, pixel } if collapse => {
+            noise.plane_row(buf, row, j, (origin, pixel), &alphas, &look_at)
+        }
+        _ => {
+            for (i, px) in row.iter_mut().enumerate() {
+                let look = look_at(i, j);
+                let (fi, fj) = (i as f64 + 0.5, j as f64 + 0.5);
+                let c = match domain {
+                    Domain::Plane { origin, pixel } => {
+                        noise.eval_with(look, [origin[0] + fi * pixel, origin[1] + fj * pixel], pixel, &alphas)
+                    }
+                    Domain::Slice { origin, u, v, pixel } => {
+                        let p = std::array::from_fn(|a| origin[a] + fi * pixel * u[a] + fj * pixel * v[a]);
+                        noise.eval_solid_with(look, p, pixel, &alphas)
+                    }
+                };
+                *px = c.map(|x| x as f32);
+            }
         }
     });
     let mut img = Image::new(width, height, 3);

@@ -485,6 +485,13 @@ pub struct Curve {
     pub max: f64,
 }
 
+/// A curve's knot abscissae and slopes worked out once ([`Curve::table`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CurveTable {
+    x: Vec<f64>,
+    m: Vec<f64>,
+}
+
 /// The 16-node Gauss–Hermite rule for E[f(Z)], Z ~ N(0,1), folded: nodes ±`GH_NODES[i]` (the
 /// physicists' nodes times √2) with weight `GH_WEIGHTS[i]` each (the physicists' weights over
 /// √π, so all 16 sum to 1). Computed at 40 digits with mpmath.
@@ -583,16 +590,16 @@ impl Curve {
     /// The interval [x_i, x_{i+1}) holding `s`, for x_0 < s < x_{K−1}: guessed from the uniform
     /// spacing, then settled against the same knot abscissae evaluation uses, so a value exactly
     /// at a knot lands at the start of that knot's interval.
-    fn interval(&self, s: f64) -> usize {
+    fn interval(&self, s: f64, x: &impl Fn(usize) -> f64) -> usize {
         let k = self.knots.len();
-        let (lo, hi) = (self.x(0), self.x(k - 1));
+        let (lo, hi) = (x(0), x(k - 1));
         // `as usize` saturates (negative or NaN to 0), so the guess is always an index.
         let mut i = (((s - lo) / (hi - lo)) * (k - 1) as f64) as usize;
         i = i.min(k - 2);
-        while i > 0 && s < self.x(i) {
+        while i > 0 && s < x(i) {
             i -= 1;
         }
-        while i + 2 < k && s >= self.x(i + 1) {
+        while i + 2 < k && s >= x(i + 1) {
             i += 1;
         }
         i
@@ -603,15 +610,18 @@ impl Curve {
         self.eval_with(s, None)
     }
 
-    /// `eval_at`, reading the knot slopes from `table` when given (the same numbers, computed
-    /// once for the many evaluations of one smoothed value).
-    fn eval_with(&self, s: f64, table: Option<&[f64]>) -> f64 {
+    /// `eval_at`, reading the knot abscissae and slopes from `table` (`(x, m)`, K each) when
+    /// given: the same numbers, computed once for many evaluations.
+    fn eval_with(&self, s: f64, table: Option<(&[f64], &[f64])>) -> f64 {
         let y = &self.knots;
         let k = y.len();
         if k == 0 || s.is_nan() {
             return f64::NAN;
         }
-        let x = |j: usize| self.x(j);
+        let x = |j: usize| match table {
+            Some((x, _)) => x[j],
+            None => self.x(j),
+        };
         let inside = |s: f64| {
             if k == 1 || s <= x(0) {
                 return y[0];
@@ -619,9 +629,9 @@ impl Curve {
             if s >= x(k - 1) {
                 return y[k - 1];
             }
-            let i = self.interval(s);
+            let i = self.interval(s, &x);
             let (x0, x1, m0, m1) = match table {
-                Some(m) => (x(i), x(i + 1), m[i], m[i + 1]),
+                Some((_, m)) => (x(i), x(i + 1), m[i], m[i + 1]),
                 None => interval_slopes(&x, y, i),
             };
             hermite_piece(x0, x1, y[i], y[i + 1], m0, m1, s)
@@ -630,7 +640,7 @@ impl Curve {
             Abscissa::Quantile => inside(s),
             Abscissa::Gaussian => {
                 let tail = |j: usize, ds: f64| {
-                    let slope = table.map_or_else(|| knot_slope(&x, y, j), |m| m[j]);
+                    let slope = table.map_or_else(|| knot_slope(&x, y, j), |(_, m)| m[j]);
                     // A zero slope times an infinite distance is still the end knot.
                     if slope != 0.0 {
                         y[j] + slope * ds
@@ -702,8 +712,24 @@ impl Curve {
     /// Gauss–Legendre on each knot interval (where Q′ is a quadratic); it is exact when every
     /// band is dropped (then P = u).
     pub fn map_smoothed(&self, g: f64, sigma_m: f64, sigma_d: f64) -> f64 {
+        self.map_smoothed_with(g, sigma_m, sigma_d, &CurveTable::default())
+    }
+
+    /// Every knot's abscissa and slope, for [`Curve::map_smoothed_with`] (a render maps
+    /// millions of values through one curve).
+    pub fn table(&self) -> CurveTable {
+        let x = |j: usize| self.x(j);
+        let k = self.knots.len();
+        CurveTable { x: (0..k).map(x).collect(), m: (0..k).map(|j| knot_slope(&x, &self.knots, j)).collect() }
+    }
+
+    /// [`Curve::map_smoothed`] reading the knots' abscissae and slopes from `table` (from
+    /// [`Curve::table`]; a table of another length is ignored): the same numbers, bit for bit.
+    pub fn map_smoothed_with(&self, g: f64, sigma_m: f64, sigma_d: f64, table: &CurveTable) -> f64 {
+        let k = self.knots.len();
+        let given = (k > 0 && table.x.len() == k && table.m.len() == k).then(|| (&table.x[..], &table.m[..]));
         if sigma_d.is_nan() || sigma_d <= 0.0 {
-            return self.map(g, sigma_m);
+            return self.eval_with(self.abscissa_of(g, sigma_m), given);
         }
         if g.is_nan() {
             return f64::NAN;
@@ -715,13 +741,16 @@ impl Curve {
                 return self.smoothed_in_u(g / sigma_m, s);
             }
         }
-        let mut buf = [0.0; SLOPE_TABLE];
-        let table = if (2..=SLOPE_TABLE).contains(&k) {
+        let (mut xs, mut ms) = ([0.0; SLOPE_TABLE], [0.0; SLOPE_TABLE]);
+        let table = if given.is_some() {
+            given
+        } else if (2..=SLOPE_TABLE).contains(&k) {
             let x = |j: usize| self.x(j);
-            for (j, m) in buf.iter_mut().take(k).enumerate() {
-                *m = knot_slope(&x, &self.knots, j);
+            for j in 0..k {
+                xs[j] = x(j);
+                ms[j] = knot_slope(&x, &self.knots, j);
             }
-            Some(&buf[..k])
+            Some((&xs[..k], &ms[..k]))
         } else {
             None
         };
@@ -1201,6 +1230,27 @@ mod tests {
             for i in 0..1000 {
                 let g = -5.0 + 10.0 * i as f64 / 999.0;
                 assert_eq!(c.map_smoothed(g, 1.3, 0.0).to_bits(), c.map(g, 1.3).to_bits());
+            }
+        }
+    }
+
+    #[test]
+    fn slopes_worked_out_once_give_the_same_numbers_bit_for_bit() {
+        let values = sample("lognormal");
+        for abscissa in [Abscissa::Quantile, Abscissa::Gaussian] {
+            // 40 knots is past the table `map_smoothed` builds on its stack.
+            for k in [2, 3, DEFAULT_KNOTS, 40] {
+                let c = Curve::fit(&values, k, abscissa).unwrap();
+                let m = c.table();
+                for i in 0..2001 {
+                    let g = -6.0 + 12.0 * i as f64 / 2000.0;
+                    for sd in [0.0, 0.05, 0.7] {
+                        let (a, b) = (c.map_smoothed(g, 1.3, sd), c.map_smoothed_with(g, 1.3, sd, &m));
+                        assert_eq!(a.to_bits(), b.to_bits(), "{abscissa:?} k={k} g={g} sd={sd}");
+                    }
+                }
+                // A table of the wrong length is ignored.
+                assert_eq!(c.map_smoothed_with(0.4, 1.3, 0.0, &CurveTable { x: vec![0.0], m: vec![1.0] }).to_bits(), c.map(0.4, 1.3).to_bits());
             }
         }
     }

@@ -224,6 +224,19 @@ fn a_window_alone_is_the_same_window_of_a_larger_render_on_any_thread_count() {
             }
         }
     }
+    // A window too narrow to collapse rows goes point by point, and a point evaluated alone is
+    // the pixel too: the same numbers by every path.
+    let narrow = eval::render(&noise, 3, 64, Domain::Plane { origin, pixel }, |_, _| &look).unwrap();
+    for y in 0..64 {
+        for x in 0..3 {
+            let at = [origin[0] + (x as f64 + 0.5) * pixel, origin[1] + (y as f64 + 0.5) * pixel];
+            let alone = noise.eval(&look, at, pixel);
+            for c in 0..3 {
+                assert_eq!(narrow.get(x, y, c).to_bits(), one.get(x, y, c).to_bits(), "narrow ({x}, {y}, {c})");
+                assert_eq!((alone[c] as f32).to_bits(), one.get(x, y, c).to_bits(), "alone ({x}, {y}, {c})");
+            }
+        }
+    }
 }
 
 #[test]
