@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use super::colour::ColourMode;
 use super::marginal::{Curve, CurveTable};
 use super::params::Procedural;
-use super::tile::{self, Tile};
+use super::tile::{self, CollapsedRow, Tile};
 use super::{NoiseError, SIGMA_N2};
 use crate::raster::Image;
 use crate::synth::rng::{derive_seed, Rng};
@@ -103,6 +103,12 @@ pub fn alpha(band: u32, footprint: f64) -> f64 {
     (-footprint.log2() - f64::from(band) + 1.0).clamp(0.0, 1.0)
 }
 
+/// Band `k + 2`'s lattice frequency, 2^(k+2) cells a sample width.
+#[inline]
+fn band_scale(k: usize) -> f64 {
+    f64::from(1u32 << (k as u32 + 2).min(31))
+}
+
 /// [`alpha`] of every band `2..2 + bands` under one footprint (the same numbers for every
 /// pixel of a render, so they are worked out once).
 fn alphas(footprint: f64, bands: usize) -> Vec<f64> {
@@ -151,27 +157,20 @@ impl Noise {
         alphas: &[f64],
         look_at: &impl Fn(usize, usize) -> &'a Look,
     ) {
-        let (n, bands, width) = (self.tile.n, self.offsets[0].len(), row.len());
+        let (bands, width) = (self.offsets[0].len(), row.len());
         let y = origin[1] + (j as f64 + 0.5) * pixel;
-        buf.collapsed.resize(n, 0.0);
         buf.live.clear();
         buf.live.resize(3 * bands, false);
         let active = |k: usize| alphas.get(k).is_some_and(|&a| a > 0.0);
-        // Band k of channel c along the row into `out` (false where it reads nothing: zeros).
-        let band_row = |c: usize, k: usize, collapsed: &mut Vec<f64>, out: &mut [f64]| {
-            let b = k as u32 + 2;
-            let scale = f64::from(1u32 << b.min(31));
-            let [ox, oy, _] = self.offsets[c][k];
-            let live = self.tile.collapse_row(scale * y + oy, collapsed);
-            if live {
-                Tile::eval_collapsed_along(collapsed, (origin[0], pixel), scale, ox, out);
-            }
-            live
+        // Band k of channel c at this row's height (false where it reads nothing: zeros).
+        let collapse = |c: usize, k: usize, collapsed: &mut CollapsedRow| {
+            let [_, oy, _] = self.offsets[c][k];
+            self.tile.collapse_row(band_scale(k) * y + oy, collapsed)
         };
+        let along = |c: usize, k: usize| ((origin[0], pixel), band_scale(k), self.offsets[c][k][0]);
         let first = look_at(0, j);
         if (1..width).all(|i| std::ptr::eq(look_at(i, j), first)) {
             let look = first;
-            buf.values.resize(width, 0.0);
             buf.sums.resize(3 * width, 0.0);
             for c in 0..3 {
                 let g = &mut buf.sums[c * width..][..width];
@@ -183,10 +182,9 @@ impl Noise {
                     dropped += (1.0 - a * a) * w * w;
                     if a > 0.0 && w != 0.0 {
                         let aw = a * w;
-                        if k < bands && active(k) && band_row(c, k, &mut buf.collapsed, &mut buf.values) {
-                            for (g, v) in g.iter_mut().zip(&buf.values) {
-                                *g += aw * v;
-                            }
+                        if k < bands && active(k) && collapse(c, k, &mut buf.collapsed) {
+                            let (at, scale, offset) = along(c, k);
+                            buf.collapsed.accumulate_along(at, scale, offset, aw, g);
                         } else {
                             for g in g.iter_mut() {
                                 *g += aw * 0.0;
@@ -211,7 +209,11 @@ impl Noise {
         for c in 0..3 {
             for k in (0..bands).filter(|&k| active(k)) {
                 let at = c * bands + k;
-                buf.live[at] = band_row(c, k, &mut buf.collapsed, &mut buf.values[at * width..][..width]);
+                buf.live[at] = collapse(c, k, &mut buf.collapsed);
+                if buf.live[at] {
+                    let (x, scale, offset) = along(c, k);
+                    buf.collapsed.along(x, scale, offset, &mut buf.values[at * width..][..width]);
+                }
             }
         }
         for (i, px) in row.iter_mut().enumerate() {
@@ -247,7 +249,7 @@ impl Noise {
                 let a = alphas.get(k).copied().unwrap_or_else(|| alpha(b, footprint));
                 dropped += (1.0 - a * a) * w * w;
                 if a > 0.0 && w != 0.0 {
-                    g += a * w * band(c, k, f64::from(1u32 << b.min(31)));
+                    g += a * w * band(c, k, band_scale(k));
                 }
             }
             *v = match &look.curves[c] {
@@ -264,7 +266,7 @@ impl Noise {
 /// A render thread's scratch rows, kept from row to row.
 #[derive(Default)]
 struct RowBuffers {
-    collapsed: Vec<f64>,
+    collapsed: CollapsedRow,
     values: Vec<f64>,
     sums: Vec<f64>,
     live: Vec<bool>,

@@ -285,6 +285,15 @@ fn taps(p: f64, n: usize) -> ([usize; 3], [f64; 3]) {
     ([lo, c, hi], w)
 }
 
+/// The three lattice indices `taps` reads at `p` on a period of `n`, with the spline parameter
+/// t = mid − (p − ½) of [`CellPoly`].
+#[inline]
+fn cell_of(p: f64, n: usize) -> ([usize; 3], f64) {
+    let (ix, _) = taps(p, n);
+    let q = p - 0.5;
+    (ix, fast_ceil(q) - q)
+}
+
 /// Column `i` of three rows, weighted.
 #[inline]
 fn column_sum(rows: &[&[f64]; 3], w: &[f64; 3], i: usize) -> f64 {
@@ -306,75 +315,32 @@ impl Tile {
             return 0.0;
         }
         let n = self.n;
-        let (ix, wx) = taps(x, n);
+        let (ix, t) = cell_of(x, n);
         let (iy, wy) = taps(y, n);
         let rows: [&[f64]; 3] = iy.map(|r| &self.data[r * n..r * n + n]);
         let column = |i: usize| column_sum(&rows, &wy, i);
-        wx[0] * column(ix[0]) + wx[1] * column(ix[1]) + wx[2] * column(ix[2])
+        cell_poly([column(ix[0]), column(ix[1]), column(ix[2])]).at(t)
     }
 
     /// The three rows a band at lattice height `y` reads, collapsed by their weights into
-    /// `out` (length n): then [`Tile::eval_collapsed`] at any x of that row is [`Tile::eval2`]
-    /// bit for bit (the same sums in the same order), at three taps instead of nine. Rows of a
-    /// render share y, which is what makes a plane render fast. Returns false (and leaves `out`
-    /// alone) where `eval2` would be 0 for every x: non-finite `y`, a tile that is not a full
-    /// 2-D lattice, or `out` of the wrong length.
-    pub fn collapse_row(&self, y: f64, out: &mut [f64]) -> bool {
+    /// `out`: then [`CollapsedRow::eval`] at any x of that row is [`Tile::eval2`] bit for bit
+    /// (the same sums in the same order), at three taps instead of nine. Rows of a render share
+    /// y, which is what makes a plane render fast. Returns false (and empties `out`) where
+    /// `eval2` would be 0 for every x: non-finite `y`, or a tile that is not a full 2-D lattice.
+    pub fn collapse_row(&self, y: f64, out: &mut CollapsedRow) -> bool {
         let n = self.n;
-        if !(y.is_finite() && self.holds(2)) || out.len() != n {
+        out.cells.clear();
+        if !(y.is_finite() && self.holds(2)) {
             return false;
         }
         let (iy, wy) = taps(y, n);
         let rows: [&[f64]; 3] = iy.map(|r| &self.data[r * n..r * n + n]);
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = column_sum(&rows, &wy, i);
-        }
+        let column = |i: usize| column_sum(&rows, &wy, i);
+        out.cells.extend((0..n).map(|c| {
+            let (lo, hi) = (if c == 0 { n - 1 } else { c - 1 }, if c + 1 == n { 0 } else { c + 1 });
+            cell_poly([column(lo), column(c), column(hi)])
+        }));
         true
-    }
-
-    /// [`Tile::eval_collapsed`] at `x = scale·(origin + (i + ½)·pixel) + offset` for every `i`
-    /// of `out`, the same numbers bit for bit. The common case (a power-of-two side and
-    /// coordinates below 2⁵²) skips the general wrap-around: the row is padded with its
-    /// neighbours across the period once, so the three taps are adjacent.
-    pub fn eval_collapsed_along(row: &[f64], (origin, pixel): (f64, f64), scale: f64, offset: f64, out: &mut [f64]) {
-        let n = row.len();
-        if !n.is_power_of_two() {
-            for (i, v) in out.iter_mut().enumerate() {
-                *v = Tile::eval_collapsed(row, scale * (origin + (i as f64 + 0.5) * pixel) + offset);
-            }
-            return;
-        }
-        let mut padded = Vec::with_capacity(n + 2);
-        padded.push(row[n - 1]);
-        padded.extend_from_slice(row);
-        padded.push(row[0]);
-        let mask = n as i64 - 1;
-        for (i, v) in out.iter_mut().enumerate() {
-            let x = scale * (origin + (i as f64 + 0.5) * pixel) + offset;
-            let q = x - 0.5;
-            if !(q.abs() < 4.0e15) {
-                *v = Tile::eval_collapsed(row, x);
-                continue;
-            }
-            // `spline` and `taps`, written out: the same operations on the same numbers.
-            let mid = fast_ceil(q);
-            let t = mid - q;
-            let w0 = t * t / 2.0;
-            let w2 = (1.0 - t) * (1.0 - t) / 2.0;
-            let c = (mid as i64 & mask) as usize;
-            let taps = &padded[c..c + 3];
-            *v = w0 * taps[0] + (1.0 - w0 - w2) * taps[1] + w2 * taps[2];
-        }
-    }
-
-    /// The band at lattice position `x` of a row collapsed by [`Tile::collapse_row`].
-    #[inline]
-    pub fn eval_collapsed(row: &[f64], x: f64) -> f64 {
-        if !x.is_finite() || row.is_empty() {
-            return 0.0;
-        }
-        let (ix, wx) = taps(x, row.len());
-        wx[0] * row[ix[0]] + wx[1] * row[ix[1]] + wx[2] * row[ix[2]]
     }
 
     /// Solid noise (3-D tiles; 27 taps). Non-finite input or a tile whose data is shorter than
@@ -424,6 +390,108 @@ pub fn render_band(tile: &Tile, band: u32, size: usize, offset: [f64; 2]) -> Vec
         }
     });
     out
+}
+
+/// The quadratic B-spline through three taps `[a, b, c]` (at mid − 1, mid, mid + 1) as a
+/// polynomial in t = mid − (p − ½) ∈ [0, 1): `w0·a + w1·b + w2·c` with w0 = t²/2,
+/// w2 = (1 − t)²/2, w1 = 1 − w0 − w2, rearranged as `P + t·(Q + t·R)`. Every evaluation (point by
+/// point or along a row) goes through this one form, so they agree bit for bit; a row render
+/// works the coefficients out once per cell instead of the weights once per pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CellPoly([f64; 3]);
+
+#[inline]
+fn cell_poly([a, b, c]: [f64; 3]) -> CellPoly {
+    CellPoly([(b + c) * 0.5, b - c, ((a + c) - 2.0 * b) * 0.5])
+}
+
+impl CellPoly {
+    #[inline(always)]
+    fn at(self, t: f64) -> f64 {
+        let [p, q, r] = self.0;
+        p + t * (q + t * r)
+    }
+}
+
+/// One band's tile rows at one lattice height collapsed by their spline weights
+/// ([`Tile::collapse_row`]), as each lattice cell's [`CellPoly`] in x. Empty where the band
+/// reads nothing (every value 0).
+#[derive(Clone, Debug, Default)]
+pub struct CollapsedRow {
+    cells: Vec<CellPoly>,
+}
+
+impl CollapsedRow {
+    /// The band at lattice position `x` of this row: [`Tile::eval2`] at (x, y), bit for bit.
+    #[inline]
+    pub fn eval(&self, x: f64) -> f64 {
+        let n = self.cells.len();
+        if !x.is_finite() || n == 0 {
+            return 0.0;
+        }
+        let (ix, t) = cell_of(x, n);
+        self.cells[ix[1]].at(t)
+    }
+
+    /// `out[i] = eval(x_i)` with `x_i = scale·(origin + (i + ½)·pixel) + offset`.
+    pub fn along(&self, at: (f64, f64), scale: f64, offset: f64, out: &mut [f64]) {
+        self.walk(at, scale, offset, out, |o, v| *o = v);
+    }
+
+    /// `out[i] += weight · eval(x_i)`: one band's term of eq. 1 added along a row, the same
+    /// numbers as `along` then a separate sum.
+    pub fn accumulate_along(&self, at: (f64, f64), scale: f64, offset: f64, weight: f64, out: &mut [f64]) {
+        self.walk(at, scale, offset, out, |o, v| *o += weight * v);
+    }
+
+    /// Along a row x only grows, so the cell `mid = ceil(x − ½)` of each pixel is found by
+    /// stepping on from the last pixel's (a cell spans a pixel or more for every band a
+    /// footprint keeps), and its polynomial stays loaded: no rounding or wrap-around per pixel.
+    /// `mid` is the same integer `taps` computes, so every value is `eval`'s bit for bit.
+    #[inline(always)]
+    fn walk(&self, (origin, pixel): (f64, f64), scale: f64, offset: f64, out: &mut [f64], put: impl Fn(&mut f64, f64)) {
+        let n = self.cells.len();
+        let x = |i: usize| scale * (origin + (i as f64 + 0.5) * pixel) + offset;
+        let last = out.len().saturating_sub(1);
+        // Below 2⁵² every integer is a float and `fast_ceil` is exact; x is monotone in i
+        // (each operation is), so the two ends bound every q.
+        let fits = |q: f64| q.abs() < 4.0e15;
+        if n == 0 || !(pixel > 0.0 && scale > 0.0) || !(fits(x(0) - 0.5) && fits(x(last) - 0.5)) {
+            for (i, o) in out.iter_mut().enumerate() {
+                put(o, self.eval(x(i)));
+            }
+            return;
+        }
+        let mut mid = fast_ceil(x(0) - 0.5);
+        let mut c = wrap(mid, n);
+        let mut cell = self.cells[c];
+        // i as f64 exactly, without a conversion per pixel.
+        let mut fi = 0.0;
+        for o in out.iter_mut() {
+            let q = (scale * (origin + (fi + 0.5) * pixel) + offset) - 0.5;
+            fi += 1.0;
+            if q > mid {
+                mid = fast_ceil(q);
+                let next = wrap(mid, n);
+                if next != c {
+                    c = next;
+                    cell = self.cells[c];
+                }
+            }
+            put(o, cell.at(mid - q));
+        }
+    }
+}
+
+/// The lattice index of an integer-valued `mid` below 2⁵² on a period of `n`: `taps`'s centre.
+#[inline]
+fn wrap(mid: f64, n: usize) -> usize {
+    let m = mid as i64;
+    if n.is_power_of_two() {
+        (m & (n as i64 - 1)) as usize
+    } else {
+        m.rem_euclid(n as i64) as usize
+    }
 }
 
 #[cfg(test)]
