@@ -181,7 +181,7 @@ impl super::Kind for ProceduralKind {
                 let format = out.format;
                 let stage = FnStage::keyed(
                     "output.procedural",
-                    1,
+                    2,
                     (params, space, seed, format),
                     |cx, &(h, space, seed, format)| {
                         let img = super::layer::procedural::render_sample_size(&cx.get(h), seed)?;

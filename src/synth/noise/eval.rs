@@ -9,11 +9,13 @@
 //! choice; the measured variance of a tile varies by a few percent with its seed).
 
 use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 
 use super::colour::ColourMode;
-use super::marginal::{Curve, CurveTable};
+use super::marginal::{Curve, CurveLut, CurveTable};
 use super::params::Procedural;
-use super::tile::{self, CollapsedRow, Tile};
+use super::tile::{self, CollapsedRow, RowXs, Tile};
 use super::{NoiseError, SIGMA_N2};
 use crate::raster::Image;
 use crate::synth::rng::{derive_seed, Rng};
@@ -68,6 +70,40 @@ pub struct Look {
     tables: [CurveTable; 3],
     /// Eq. 2 per channel, with the gains.
     sigma_m: [f64; 3],
+    luts: Luts,
+}
+
+/// A channel's curve table under one σ_d, shared by the threads of a render.
+type SharedLut = Arc<Option<CurveLut>>;
+
+/// Each channel's [`CurveLut`]s by σ_d, built on first use. A table depends only on the curve and
+/// the two σ, so when it is built cannot change a pixel; a clone starts empty and equality
+/// ignores it.
+#[derive(Debug, Default)]
+struct Luts(Mutex<Vec<(usize, u64, SharedLut)>>);
+
+impl Clone for Luts {
+    fn clone(&self) -> Luts {
+        Luts::default()
+    }
+}
+
+impl PartialEq for Luts {
+    fn eq(&self, _: &Luts) -> bool {
+        true
+    }
+}
+
+/// A thread's memo of the tables it has used (looks by address: they outlive the render), so
+/// a pixel takes no lock.
+#[derive(Default)]
+struct LutMemo(HashMap<(usize, usize, u64), SharedLut>);
+
+impl LutMemo {
+    fn get(&mut self, look: &Look, c: usize, sigma_d: f64) -> &SharedLut {
+        let key = (look as *const Look as usize, c, sigma_d.to_bits());
+        self.0.entry(key).or_insert_with(|| look.lut(c, sigma_d))
+    }
 }
 
 impl Look {
@@ -80,7 +116,7 @@ impl Look {
         let sigma_m = std::array::from_fn(|c| (SIGMA_N2 * weights[c].iter().map(|w| w * w).sum::<f64>()).sqrt());
         let curves: [Option<Curve>; 3] = std::array::from_fn(|c| p.channels[c].curve.clone());
         let tables = std::array::from_fn(|c| curves[c].as_ref().map_or_else(CurveTable::default, Curve::table));
-        Look { mean: p.mean, u: p.u, weights, curves, tables, sigma_m }
+        Look { mean: p.mean, u: p.u, weights, curves, tables, sigma_m, luts: Luts::default() }
     }
 
     /// `U·v + mean`.
@@ -91,6 +127,30 @@ impl Look {
 
     pub fn bands(&self) -> usize {
         self.weights[0].len()
+    }
+
+    /// Channel `c`'s curve table under `sigma_d` (None without a curve, or where the curve
+    /// takes none).
+    fn lut(&self, c: usize, sigma_d: f64) -> SharedLut {
+        let bits = sigma_d.to_bits();
+        // A poisoned lock only means another thread panicked mid-render; the list is still valid.
+        let mut list = self.luts.0.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, _, lut)) = list.iter().find(|(at, b, _)| *at == c && *b == bits) {
+            return lut.clone();
+        }
+        let lut = Arc::new(self.curves[c].as_ref().and_then(|k| k.lut(self.sigma_m[c], sigma_d, &self.tables[c])));
+        list.push((c, bits, lut.clone()));
+        lut
+    }
+
+    /// The histogram back-mapping of channel `c` (identity without a curve), through `lut`.
+    #[inline]
+    fn map(&self, c: usize, g: f64, sigma_d: f64, lut: &Option<CurveLut>) -> f64 {
+        match (&self.curves[c], lut) {
+            (None, _) => g,
+            (Some(curve), Some(lut)) => lut.map(curve, &self.tables[c], g),
+            (Some(curve), None) => curve.map_smoothed_with(g, self.sigma_m[c], sigma_d, &self.tables[c]),
+        }
     }
 }
 
@@ -118,11 +178,11 @@ fn alphas(footprint: f64, bands: usize) -> Vec<f64> {
 impl Noise {
     /// The colour at `x` (sample widths), for a pixel of `footprint` sample widths.
     pub fn eval(&self, look: &Look, x: [f64; 2], footprint: f64) -> [f64; 3] {
-        self.eval_with(look, x, footprint, &alphas(footprint, look.bands()))
+        self.eval_with(look, x, footprint, &alphas(footprint, look.bands()), &mut LutMemo::default())
     }
 
-    fn eval_with(&self, look: &Look, x: [f64; 2], footprint: f64, alphas: &[f64]) -> [f64; 3] {
-        self.shade(look, footprint, alphas, |c, k, scale| match self.offsets[c].get(k) {
+    fn eval_with(&self, look: &Look, x: [f64; 2], footprint: f64, alphas: &[f64], memo: &mut LutMemo) -> [f64; 3] {
+        self.shade(look, footprint, alphas, memo, |c, k, scale| match self.offsets[c].get(k) {
             Some(o) => self.tile.eval2(scale * x[0] + o[0], scale * x[1] + o[1]),
             None => 0.0,
         })
@@ -131,12 +191,19 @@ impl Noise {
     /// The solid texture at `p` (sample widths); the plain 2-D texture when built without a
     /// solid tile.
     pub fn eval_solid(&self, look: &Look, p: [f64; 3], footprint: f64) -> [f64; 3] {
-        self.eval_solid_with(look, p, footprint, &alphas(footprint, look.bands()))
+        self.eval_solid_with(look, p, footprint, &alphas(footprint, look.bands()), &mut LutMemo::default())
     }
 
-    fn eval_solid_with(&self, look: &Look, p: [f64; 3], footprint: f64, alphas: &[f64]) -> [f64; 3] {
-        let Some(solid) = &self.solid else { return self.eval_with(look, [p[0], p[1]], footprint, alphas) };
-        self.shade(look, footprint, alphas, |c, k, scale| match self.offsets[c].get(k) {
+    fn eval_solid_with(
+        &self,
+        look: &Look,
+        p: [f64; 3],
+        footprint: f64,
+        alphas: &[f64],
+        memo: &mut LutMemo,
+    ) -> [f64; 3] {
+        let Some(solid) = &self.solid else { return self.eval_with(look, [p[0], p[1]], footprint, alphas, memo) };
+        self.shade(look, footprint, alphas, memo, |c, k, scale| match self.offsets[c].get(k) {
             Some(o) => solid.eval3(scale * p[0] + o[0], scale * p[1] + o[1], scale * p[2] + o[2]),
             None => 0.0,
         })
@@ -151,13 +218,13 @@ impl Noise {
     fn plane_row<'a>(
         &self,
         buf: &mut RowBuffers,
-        row: &mut [[f32; 3]],
+        row: [&mut [f32]; 3],
         j: usize,
         (origin, pixel): ([f64; 2], f64),
         alphas: &[f64],
         look_at: &impl Fn(usize, usize) -> &'a Look,
     ) {
-        let (bands, width) = (self.offsets[0].len(), row.len());
+        let (bands, width) = (self.offsets[0].len(), row[0].len());
         let y = origin[1] + (j as f64 + 0.5) * pixel;
         buf.live.clear();
         buf.live.resize(3 * bands, false);
@@ -167,7 +234,8 @@ impl Noise {
             let [_, oy, _] = self.offsets[c][k];
             self.tile.collapse_row(band_scale(k) * y + oy, collapsed)
         };
-        let along = |c: usize, k: usize| ((origin[0], pixel), band_scale(k), self.offsets[c][k][0]);
+        buf.xs.set((0..width).map(|i| origin[0] + (i as f64 + 0.5) * pixel));
+        let along = |c: usize, k: usize| (band_scale(k), self.offsets[c][k][0]);
         let first = look_at(0, j);
         if (1..width).all(|i| std::ptr::eq(look_at(i, j), first)) {
             let look = first;
@@ -183,8 +251,8 @@ impl Noise {
                     if a > 0.0 && w != 0.0 {
                         let aw = a * w;
                         if k < bands && active(k) && collapse(c, k, &mut buf.collapsed) {
-                            let (at, scale, offset) = along(c, k);
-                            buf.collapsed.accumulate_along(at, scale, offset, aw, g);
+                            let (scale, offset) = along(c, k);
+                            buf.collapsed.accumulate_along(&buf.xs, scale, offset, aw, g);
                         } else {
                             for g in g.iter_mut() {
                                 *g += aw * 0.0;
@@ -193,15 +261,17 @@ impl Noise {
                     }
                 }
                 let sigma_d = (SIGMA_N2 * dropped).sqrt();
-                if let Some(curve) = &look.curves[c] {
+                if look.curves[c].is_some() {
+                    let lut = buf.memo.get(look, c, sigma_d);
                     for g in g.iter_mut() {
-                        *g = curve.map_smoothed_with(*g, look.sigma_m[c], sigma_d, &look.tables[c]);
+                        *g = look.map(c, *g, sigma_d, lut);
                     }
                 }
             }
-            for (i, px) in row.iter_mut().enumerate() {
+            let [r, g, b] = row;
+            for (i, ((r, g), b)) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()).enumerate() {
                 let v = [buf.sums[i], buf.sums[width + i], buf.sums[2 * width + i]];
-                *px = look.mix(v).map(|x| x as f32);
+                [*r, *g, *b] = look.mix(v).map(|x| x as f32);
             }
             return;
         }
@@ -211,14 +281,15 @@ impl Noise {
                 let at = c * bands + k;
                 buf.live[at] = collapse(c, k, &mut buf.collapsed);
                 if buf.live[at] {
-                    let (x, scale, offset) = along(c, k);
-                    buf.collapsed.along(x, scale, offset, &mut buf.values[at * width..][..width]);
+                    let (scale, offset) = along(c, k);
+                    buf.collapsed.along(&buf.xs, scale, offset, &mut buf.values[at * width..][..width]);
                 }
             }
         }
-        for (i, px) in row.iter_mut().enumerate() {
+        let [r, g, b] = row;
+        for (i, ((r, g), b)) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()).enumerate() {
             let look = look_at(i, j);
-            let colour = self.shade(look, pixel, alphas, |c, k, _| {
+            let colour = self.shade(look, pixel, alphas, &mut buf.memo, |c, k, _| {
                 let at = c * bands + k;
                 if k < bands && buf.live[at] {
                     buf.values[at * width + i]
@@ -226,7 +297,7 @@ impl Noise {
                     0.0
                 }
             });
-            *px = colour.map(|x| x as f32);
+            [*r, *g, *b] = colour.map(|x| x as f32);
         }
     }
 
@@ -239,6 +310,7 @@ impl Noise {
         look: &Look,
         footprint: f64,
         alphas: &[f64],
+        memo: &mut LutMemo,
         band: impl Fn(usize, usize, f64) -> f64,
     ) -> [f64; 3] {
         let mut v = [0.0; 3];
@@ -252,12 +324,11 @@ impl Noise {
                     g += a * w * band(c, k, band_scale(k));
                 }
             }
-            *v = match &look.curves[c] {
-                Some(curve) => {
-                    curve.map_smoothed_with(g, look.sigma_m[c], (SIGMA_N2 * dropped).sqrt(), &look.tables[c])
-                }
-                None => g,
-            };
+            if look.curves[c].is_some() {
+                let sigma_d = (SIGMA_N2 * dropped).sqrt();
+                g = look.map(c, g, sigma_d, memo.get(look, c, sigma_d));
+            }
+            *v = g;
         }
         look.mix(v)
     }
@@ -266,6 +337,9 @@ impl Noise {
 /// A render thread's scratch rows, kept from row to row.
 #[derive(Default)]
 struct RowBuffers {
+    memo: LutMemo,
+    /// The row's pixel centres in sample widths (x only).
+    xs: RowXs,
     collapsed: CollapsedRow,
     values: Vec<f64>,
     sums: Vec<f64>,
@@ -297,8 +371,13 @@ pub fn render<'a>(
     if width.saturating_mul(height) > MAX_PIXELS {
         return Err(NoiseError::TooLarge { pixels: width.saturating_mul(height) as u64, limit: MAX_PIXELS as u64 });
     }
-    let m = width * height;
-    let mut rgb = vec![[0.0f32; 3]; m];
+    let mut img = Image::new(width, height, 3);
+    if width == 0 || height == 0 {
+        return Ok(img);
+    }
+    let (r, rest) = img.data.split_at_mut(width * height);
+    let (g, b) = rest.split_at_mut(width * height);
+    let rows = r.par_chunks_mut(width).zip(g.par_chunks_mut(width)).zip(b.par_chunks_mut(width));
     let pixel = match domain {
         Domain::Plane { pixel, .. } | Domain::Slice { pixel, .. } => pixel,
     };
@@ -306,33 +385,31 @@ pub fn render<'a>(
     // Collapsing a row's tile rows costs about n/4 pixels' worth of taps per band: narrow
     // windows evaluate point by point instead (the same numbers either way).
     let collapse = width >= noise.tile.n / 4;
-    rgb.par_chunks_mut(width.max(1)).enumerate().for_each_init(RowBuffers::default, |buf, (j, row)| match domain {
+    rows.enumerate().for_each_init(RowBuffers::default, |buf, (j, ((r, g), b))| match domain {
         Domain::Plane { origin, pixel } if collapse => {
-            noise.plane_row(buf, row, j, (origin, pixel), &alphas, &look_at)
+            noise.plane_row(buf, [r, g, b], j, (origin, pixel), &alphas, &look_at)
         }
         _ => {
-            for (i, px) in row.iter_mut().enumerate() {
+            for (i, ((r, g), b)) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()).enumerate() {
                 let look = look_at(i, j);
                 let (fi, fj) = (i as f64 + 0.5, j as f64 + 0.5);
                 let c = match domain {
-                    Domain::Plane { origin, pixel } => {
-                        noise.eval_with(look, [origin[0] + fi * pixel, origin[1] + fj * pixel], pixel, &alphas)
-                    }
+                    Domain::Plane { origin, pixel } => noise.eval_with(
+                        look,
+                        [origin[0] + fi * pixel, origin[1] + fj * pixel],
+                        pixel,
+                        &alphas,
+                        &mut buf.memo,
+                    ),
                     Domain::Slice { origin, u, v, pixel } => {
                         let p = std::array::from_fn(|a| origin[a] + fi * pixel * u[a] + fj * pixel * v[a]);
-                        noise.eval_solid_with(look, p, pixel, &alphas)
+                        noise.eval_solid_with(look, p, pixel, &alphas, &mut buf.memo)
                     }
                 };
-                *px = c.map(|x| x as f32);
+                [*r, *g, *b] = c.map(|x| x as f32);
             }
         }
     });
-    let mut img = Image::new(width, height, 3);
-    for c in 0..3 {
-        for (d, px) in img.plane_mut(c).iter_mut().zip(&rgb) {
-            *d = px[c];
-        }
-    }
     Ok(img)
 }
 

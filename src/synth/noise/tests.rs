@@ -231,9 +231,9 @@ fn a_window_alone_is_the_same_window_of_a_larger_render_on_any_thread_count() {
         for x in 0..3 {
             let at = [origin[0] + (x as f64 + 0.5) * pixel, origin[1] + (y as f64 + 0.5) * pixel];
             let alone = noise.eval(&look, at, pixel);
-            for c in 0..3 {
+            for (c, alone) in alone.into_iter().enumerate() {
                 assert_eq!(narrow.get(x, y, c).to_bits(), one.get(x, y, c).to_bits(), "narrow ({x}, {y}, {c})");
-                assert_eq!((alone[c] as f32).to_bits(), one.get(x, y, c).to_bits(), "alone ({x}, {y}, {c})");
+                assert_eq!((alone as f32).to_bits(), one.get(x, y, c).to_bits(), "alone ({x}, {y}, {c})");
             }
         }
     }
@@ -476,4 +476,55 @@ fn gaussian_abscissa_curves_fit_more_closely() {
     let (q, g) = (ks(Abscissa::Quantile), ks(Abscissa::Gaussian));
     eprintln!("output marginal KS: quantile knots {q:.4}, gaussian knots {g:.4}");
     assert!(g < q && g < 0.05, "quantile {q}, gaussian {g}");
+}
+
+#[test]
+fn the_curve_table_stays_within_a_sixteen_bit_step_of_the_exact_map() {
+    // A render maps through `CurveLut`; its linear interpolation must not be visible in a 16-bit
+    // output: within 2⁻¹⁶ of the curve's range of the exact map, for both abscissae, sharp
+    // and smoothed, over the whole range the table covers (and exact beyond it).
+    use super::marginal::{CurveTable, LUT_RANGE};
+    // Skewed, with the channels shifted apart so each principal channel has a real histogram.
+    let n = 256;
+    let skewed = skewed_sample(n);
+    let sample = Image::from_fn(n, n, 3, |x, y, c| skewed.get((x + 37 * c) % n, (y + 11 * c) % n, c));
+    for abscissa in [Abscissa::Quantile, Abscissa::Gaussian] {
+        for knots in [17, 64, 256] {
+            let opts = FitOptions { histogram: HistogramMode::On, abscissa, knots, ..FitOptions::default() };
+            let p = fit(&sample, &opts).unwrap().params;
+            // What an output sees: errors against the widest channel's range.
+            let range = p
+                .channels
+                .iter()
+                .map(|ch| ch.curve.as_ref().map_or(0.0, |c| c.knots.last().unwrap() - c.knots[0]))
+                .fold(0.0, f64::max);
+            for ch in &p.channels {
+                let curve = ch.curve.as_ref().unwrap();
+                let table: CurveTable = curve.table();
+                let sigma_m = (super::SIGMA_N2 * ch.weights.iter().map(|w| w * w).sum::<f64>()).sqrt();
+                for sigma_d in [0.0, 0.05 * sigma_m, 0.5 * sigma_m] {
+                    // A Gaussian-abscissa curve smoothed wider than its knots needs no table.
+                    let Some(lut) = curve.lut(sigma_m, sigma_d, &table) else {
+                        assert_eq!(abscissa, Abscissa::Gaussian);
+                        continue;
+                    };
+                    let mut worst: f64 = 0.0;
+                    for i in 0..=20_000 {
+                        let g = (i as f64 / 10_000.0 - 1.0) * (LUT_RANGE + 1.0) * sigma_m;
+                        let exact = curve.map_smoothed_with(g, sigma_m, sigma_d, &table);
+                        let got = lut.map(curve, &table, g);
+                        if g.abs() > LUT_RANGE * sigma_m && abscissa == Abscissa::Quantile {
+                            assert_eq!(got.to_bits(), exact.to_bits(), "beyond the table at {g}");
+                        }
+                        worst = worst.max((got - exact).abs() / range);
+                    }
+                    eprintln!(
+                        "{abscissa:?} K={knots} σd/σM={:.2}: worst {worst:.2e} of the range {range:.3e}",
+                        sigma_d / sigma_m
+                    );
+                    assert!(worst < 1.0 / 65536.0, "{abscissa:?} K={knots}: {worst:.2e}");
+                }
+            }
+        }
+    }
 }

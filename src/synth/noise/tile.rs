@@ -335,10 +335,12 @@ impl Tile {
         }
         let (iy, wy) = taps(y, n);
         let rows: [&[f64]; 3] = iy.map(|r| &self.data[r * n..r * n + n]);
-        let column = |i: usize| column_sum(&rows, &wy, i);
+        out.columns.clear();
+        out.columns.extend((0..n).map(|i| column_sum(&rows, &wy, i)));
+        let col = &out.columns;
         out.cells.extend((0..n).map(|c| {
             let (lo, hi) = (if c == 0 { n - 1 } else { c - 1 }, if c + 1 == n { 0 } else { c + 1 });
-            cell_poly([column(lo), column(c), column(hi)])
+            cell_poly([col[lo], col[c], col[hi]])
         }));
         true
     }
@@ -419,6 +421,8 @@ impl CellPoly {
 #[derive(Clone, Debug, Default)]
 pub struct CollapsedRow {
     cells: Vec<CellPoly>,
+    /// Scratch: the weighted column sums the cells are made of.
+    columns: Vec<f64>,
 }
 
 impl CollapsedRow {
@@ -433,53 +437,95 @@ impl CollapsedRow {
         self.cells[ix[1]].at(t)
     }
 
-    /// `out[i] = eval(x_i)` with `x_i = scale·(origin + (i + ½)·pixel) + offset`.
-    pub fn along(&self, at: (f64, f64), scale: f64, offset: f64, out: &mut [f64]) {
-        self.walk(at, scale, offset, out, |o, v| *o = v);
+    /// `out[i] = eval(scale·xs[i] + offset)`, for `xs` non-decreasing (a row's abscissae in
+    /// sample widths, shared by every band).
+    pub fn along(&self, xs: &RowXs, scale: f64, offset: f64, out: &mut [f64]) {
+        self.walk(xs, scale, offset, out, |o, v| *o = v);
     }
 
-    /// `out[i] += weight · eval(x_i)`: one band's term of eq. 1 added along a row, the same
-    /// numbers as `along` then a separate sum.
-    pub fn accumulate_along(&self, at: (f64, f64), scale: f64, offset: f64, weight: f64, out: &mut [f64]) {
-        self.walk(at, scale, offset, out, |o, v| *o += weight * v);
+    /// `out[i] += weight · eval(scale·xs[i] + offset)`: one band's term of eq. 1 added along a
+    /// row, the same numbers as `along` then a separate sum.
+    pub fn accumulate_along(&self, xs: &RowXs, scale: f64, offset: f64, weight: f64, out: &mut [f64]) {
+        self.walk(xs, scale, offset, out, |o, v| *o += weight * v);
     }
 
-    /// Along a row x only grows, so the cell `mid = ceil(x − ½)` of each pixel is found by
-    /// stepping on from the last pixel's (a cell spans a pixel or more for every band a
-    /// footprint keeps), and its polynomial stays loaded: no rounding or wrap-around per pixel.
-    /// `mid` is the same integer `taps` computes, so every value is `eval`'s bit for bit.
+    /// Along a row x only grows, so pixels come in runs that share a cell `mid = ceil(x − ½)`:
+    /// each run's end is found once (guessed from the spacing, settled by comparing the same
+    /// q the pixels use) and the run is a branch-free loop the compiler vectorises. Where cells
+    /// are narrower than a few pixels the cell is stepped pixel by pixel instead. `mid` is the
+    /// integer `taps` computes, so every value is `eval`'s bit for bit. Other input (a row that
+    /// is not non-decreasing, coordinates beyond 2⁵²) is evaluated point by point.
     #[inline(always)]
-    fn walk(&self, (origin, pixel): (f64, f64), scale: f64, offset: f64, out: &mut [f64], put: impl Fn(&mut f64, f64)) {
+    fn walk(&self, xs: &RowXs, scale: f64, offset: f64, out: &mut [f64], put: impl Fn(&mut f64, f64)) {
         let n = self.cells.len();
-        let x = |i: usize| scale * (origin + (i as f64 + 0.5) * pixel) + offset;
-        let last = out.len().saturating_sub(1);
-        // Below 2⁵² every integer is a float and `fast_ceil` is exact; x is monotone in i
-        // (each operation is), so the two ends bound every q.
+        let (sorted, xs) = (xs.sorted, &xs.xs[..]);
+        let len = out.len().min(xs.len());
+        let (out, xs) = (&mut out[..len], &xs[..len]);
+        let q = |x: f64| (scale * x + offset) - 0.5;
         let fits = |q: f64| q.abs() < 4.0e15;
-        if n == 0 || !(pixel > 0.0 && scale > 0.0) || !(fits(x(0) - 0.5) && fits(x(last) - 0.5)) {
-            for (i, o) in out.iter_mut().enumerate() {
-                put(o, self.eval(x(i)));
+        let pointwise = |out: &mut [f64]| {
+            for (o, &x) in out.iter_mut().zip(xs) {
+                put(o, self.eval(scale * x + offset));
+            }
+        };
+        if len == 0 || n == 0 || scale.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            return pointwise(out);
+        }
+        let (first, last) = (q(xs[0]), q(xs[len - 1]));
+        // q is monotone in x (each operation is), so the ends bound every q of a sorted row.
+        if !(fits(first) && fits(last) && sorted) {
+            return pointwise(out);
+        }
+        // Pixels per cell, for the run guesses (any positive number would be correct).
+        let per = if len > 1 { (len - 1) as f64 / (last - first) } else { 1.0 };
+        if !(per >= 4.0 && per.is_finite()) {
+            let mut mid = fast_ceil(first);
+            let mut cell = self.cells[wrap(mid, n)];
+            for (o, &x) in out.iter_mut().zip(xs) {
+                let q = q(x);
+                if q > mid {
+                    mid = fast_ceil(q);
+                    cell = self.cells[wrap(mid, n)];
+                }
+                put(o, cell.at(mid - q));
             }
             return;
         }
-        let mut mid = fast_ceil(x(0) - 0.5);
-        let mut c = wrap(mid, n);
-        let mut cell = self.cells[c];
-        // i as f64 exactly, without a conversion per pixel.
-        let mut fi = 0.0;
-        for o in out.iter_mut() {
-            let q = (scale * (origin + (fi + 0.5) * pixel) + offset) - 0.5;
-            fi += 1.0;
-            if q > mid {
-                mid = fast_ceil(q);
-                let next = wrap(mid, n);
-                if next != c {
-                    c = next;
-                    cell = self.cells[c];
-                }
+        let mut i = 0;
+        while i < len {
+            let qi = q(xs[i]);
+            let mid = fast_ceil(qi);
+            let cell = self.cells[wrap(mid, n)];
+            // The run is i..j: q ≤ mid inside (so ceil(q) = mid, as q > mid − 1 from i on),
+            // q > mid at j.
+            let mut j = (i + 1).saturating_add(((mid - qi) * per) as usize).min(len);
+            while j < len && q(xs[j]) <= mid {
+                j += 1;
             }
-            put(o, cell.at(mid - q));
+            while j > i + 1 && q(xs[j - 1]) > mid {
+                j -= 1;
+            }
+            for (o, &x) in out[i..j].iter_mut().zip(&xs[i..j]) {
+                put(o, cell.at(mid - q(x)));
+            }
+            i = j;
         }
+    }
+}
+
+/// A row's pixel abscissae in sample widths, shared by every band of the row, and whether they
+/// are non-decreasing (checked once, when they are set).
+#[derive(Clone, Debug, Default)]
+pub struct RowXs {
+    xs: Vec<f64>,
+    sorted: bool,
+}
+
+impl RowXs {
+    pub fn set(&mut self, xs: impl IntoIterator<Item = f64>) {
+        self.xs.clear();
+        self.xs.extend(xs);
+        self.sorted = self.xs.windows(2).all(|w| w[0] <= w[1]);
     }
 }
 
