@@ -94,6 +94,9 @@ impl PartialEq for Luts {
     }
 }
 
+/// Most curve tables a look keeps (32 KiB each; a render needs one per channel).
+const MAX_LUTS: usize = 48;
+
 /// A thread's memo of the tables it has used (looks by address: they outlive the render), so
 /// a pixel takes no lock.
 #[derive(Default)]
@@ -138,7 +141,13 @@ impl Look {
         if let Some((_, _, lut)) = list.iter().find(|(at, b, _)| *at == c && *b == bits) {
             return lut.clone();
         }
-        let lut = Arc::new(self.curves[c].as_ref().and_then(|k| k.lut(self.sigma_m[c], sigma_d, &self.tables[c])));
+        let (curve, table, sigma_m) = (self.curves[c].as_ref(), &self.tables[c], self.sigma_m[c]);
+        if list.len() >= MAX_LUTS {
+            // A caller sweeping the footprint would grow the list without end: past the cap, each
+            // call works out the points it needs (the same numbers, more slowly).
+            return Arc::new(curve.and_then(|k| k.lut_unfilled(sigma_m, sigma_d, table)));
+        }
+        let lut = Arc::new(curve.and_then(|k| k.lut(sigma_m, sigma_d, table)));
         list.push((c, bits, lut.clone()));
         lut
     }

@@ -501,6 +501,7 @@ pub struct CurveTable {
 #[derive(Clone, Debug, PartialEq)]
 pub struct CurveLut {
     lo: f64,
+    step: f64,
     inv_step: f64,
     sigma_m: f64,
     sigma_d: f64,
@@ -524,7 +525,12 @@ impl CurveLut {
             let i = s as u32;
             let f = s - f64::from(i);
             let i = i as usize;
-            let [a0, a1, a2, a3] = [self.values[i - 1], self.values[i], self.values[i + 1], self.values[i + 2]];
+            // An unfilled table works out the four points it needs: the same numbers.
+            let at = |k: usize| match self.values.get(k) {
+                Some(&v) => v,
+                None => curve.map_smoothed_with(self.lo + k as f64 * self.step, self.sigma_m, self.sigma_d, table),
+            };
+            let [a0, a1, a2, a3] = [at(i - 1), at(i), at(i + 1), at(i + 2)];
             // Catmull–Rom: cubic between the two middle points, slopes by central differences.
             a1 + 0.5 * f * ((a2 - a0) + f * ((2.0 * a0 - 5.0 * a1 + 4.0 * a2 - a3) + f * (3.0 * (a1 - a2) + a3 - a0)))
         } else {
@@ -766,7 +772,10 @@ impl Curve {
 
     /// The [`CurveLut`] of this curve under (σ_M, σ_d); None where σ_M is not a positive finite
     /// number (the map is then a step, which no table resolves).
-    pub fn lut(&self, sigma_m: f64, sigma_d: f64, table: &CurveTable) -> Option<CurveLut> {
+    /// Where its points lie, none worked out yet: [`CurveLut::map`] then computes the four it
+    /// needs at each call (the same numbers), for a one-off evaluation that would not repay a
+    /// table.
+    pub fn lut_unfilled(&self, sigma_m: f64, sigma_d: f64, _table: &CurveTable) -> Option<CurveLut> {
         if !(sigma_m.is_finite() && sigma_m > 0.0) {
             return None;
         }
@@ -784,9 +793,16 @@ impl Curve {
             return None;
         }
         let step = (hi - lo) / (LUT_POINTS - 1) as f64;
-        let values =
-            (0..LUT_POINTS).map(|i| self.map_smoothed_with(lo + i as f64 * step, sigma_m, sigma_d, table)).collect();
-        Some(CurveLut { lo, inv_step: 1.0 / step, sigma_m, sigma_d, values })
+        Some(CurveLut { lo, step, inv_step: 1.0 / step, sigma_m, sigma_d, values: Vec::new() })
+    }
+
+    /// [`Curve::lut_unfilled`] with its points worked out: what a render keeps.
+    pub fn lut(&self, sigma_m: f64, sigma_d: f64, table: &CurveTable) -> Option<CurveLut> {
+        let mut lut = self.lut_unfilled(sigma_m, sigma_d, table)?;
+        lut.values = (0..LUT_POINTS)
+            .map(|i| self.map_smoothed_with(lut.lo + i as f64 * lut.step, sigma_m, sigma_d, table))
+            .collect();
+        Some(lut)
     }
 
     /// [`Curve::map_smoothed`] reading the knots' abscissae and slopes from `table` (from
