@@ -268,18 +268,7 @@ pub fn bspline(p: f64) -> (i64, [f64; 3]) {
 fn taps(p: f64, n: usize) -> ([usize; 3], [f64; 3]) {
     let (mid, w) = spline(p);
     // Exact in both branches: mid is an integer-valued float, and f64 remainders are exact.
-    let c = if mid.abs() < 9.0e15 {
-        let m = mid as i64;
-        // The same residue; a mask where the side allows it (an integer division per tap
-        // otherwise).
-        if n.is_power_of_two() {
-            (m & (n as i64 - 1)) as usize
-        } else {
-            m.rem_euclid(n as i64) as usize
-        }
-    } else {
-        (mid.rem_euclid(n as f64) as usize).min(n - 1)
-    };
+    let c = if mid.abs() < 9.0e15 { wrap(mid, n) } else { (mid.rem_euclid(n as f64) as usize).min(n - 1) };
     let lo = if c == 0 { n - 1 } else { c - 1 };
     let hi = if c + 1 == n { 0 } else { c + 1 };
     ([lo, c, hi], w)
@@ -529,7 +518,8 @@ impl RowXs {
     }
 }
 
-/// The lattice index of an integer-valued `mid` below 2⁵² on a period of `n`: `taps`'s centre.
+/// The lattice index of an integer-valued `mid` below 2⁵² on a period of `n`: `taps`'s centre
+/// (a mask where the side allows it, an integer division otherwise).
 #[inline]
 fn wrap(mid: f64, n: usize) -> usize {
     let m = mid as i64;
