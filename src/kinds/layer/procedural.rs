@@ -69,7 +69,7 @@ pub fn plan(p: &mut Planner, d: &Decl, texture: &str) -> Result<Handle<Image>, D
         solid: props.bool("solid"),
         slice: props.num("slice"),
     };
-    let stage = FnStage::keyed("layer.procedural", 2, evaluating, run);
+    let stage = FnStage::keyed("layer.procedural", 3, evaluating, run);
     Ok(p.add(format!("layer {}", d.name), stage, inputs, vec![]))
 }
 

@@ -70,6 +70,11 @@ pub struct Look {
     tables: [CurveTable; 3],
     /// Eq. 2 per channel, with the gains.
     sigma_m: [f64; 3],
+    /// Whether the curves map through tables ([`CurveLut`]) or exactly. A table repays its
+    /// points only over thousands of pixels; a morph's in-between looks each colour a sliver of
+    /// the image, so they map exactly (fixed per look, so any window of a render gets the same
+    /// bits).
+    tabulate: bool,
     luts: Luts,
 }
 
@@ -119,7 +124,7 @@ impl Look {
         let sigma_m = std::array::from_fn(|c| (SIGMA_N2 * weights[c].iter().map(|w| w * w).sum::<f64>()).sqrt());
         let curves: [Option<Curve>; 3] = std::array::from_fn(|c| p.channels[c].curve.clone());
         let tables = std::array::from_fn(|c| curves[c].as_ref().map_or_else(CurveTable::default, Curve::table));
-        Look { mean: p.mean, u: p.u, weights, curves, tables, sigma_m, luts: Luts::default() }
+        Look { mean: p.mean, u: p.u, weights, curves, tables, sigma_m, tabulate: true, luts: Luts::default() }
     }
 
     /// `U·v + mean`.
@@ -141,13 +146,16 @@ impl Look {
         if let Some((_, _, lut)) = list.iter().find(|(at, b, _)| *at == c && *b == bits) {
             return lut.clone();
         }
-        let (curve, table, sigma_m) = (self.curves[c].as_ref(), &self.tables[c], self.sigma_m[c]);
+        let (curve, sigma_m) = (self.curves[c].as_ref(), self.sigma_m[c]);
+        if !self.tabulate {
+            return Arc::new(None);
+        }
         if list.len() >= MAX_LUTS {
             // A caller sweeping the footprint would grow the list without end: past the cap, each
             // call works out the points it needs (the same numbers, more slowly).
-            return Arc::new(curve.and_then(|k| k.lut_unfilled(sigma_m, sigma_d, table)));
+            return Arc::new(curve.and_then(|k| k.lut_unkept(sigma_m, sigma_d)));
         }
-        let lut = Arc::new(curve.and_then(|k| k.lut(sigma_m, sigma_d, table)));
+        let lut = Arc::new(curve.and_then(|k| k.lut(sigma_m, sigma_d)));
         list.push((c, bits, lut.clone()));
         lut
     }
@@ -426,9 +434,15 @@ pub fn render<'a>(
 /// at most 1/512, and 0 and 1 are exact).
 pub const MORPH_STEPS: usize = 256;
 
-/// The looks of a morph from `a` to `b` at `t = k / MORPH_STEPS`.
+/// The looks of a morph from `a` to `b` at `t = k / MORPH_STEPS` (the in-between ones map
+/// their curves exactly: see [`Look`]).
 pub fn morph_looks(a: &Procedural, b: &Procedural, gains: &[f64]) -> Result<Vec<Look>, NoiseError> {
-    (0..=MORPH_STEPS).map(|k| Ok(Look::new(&a.morph(b, k as f64 / MORPH_STEPS as f64)?, gains))).collect()
+    (0..=MORPH_STEPS)
+        .map(|k| {
+            let look = Look::new(&a.morph(b, k as f64 / MORPH_STEPS as f64)?, gains);
+            Ok(Look { tabulate: k == 0 || k == MORPH_STEPS, ..look })
+        })
+        .collect()
 }
 
 /// The step of `t` (clamped into [0, 1]; NaN is 0).

@@ -12,6 +12,7 @@
 //! on every platform (proposal 18).
 
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Knots per curve when the caller does not say: the paper's 10 for a 512² photo.
 pub const DEFAULT_KNOTS: usize = 10;
@@ -493,19 +494,25 @@ pub struct CurveTable {
 }
 
 /// [`Curve::map_smoothed`] under one (σ_M, σ_d), tabulated at [`LUT_POINTS`] values of g over
-/// ±[`LUT_RANGE`]·σ_M (within the knots' span for the Gaussian abscissa) and interpolated by Catmull–Rom cubics; exact evaluation outside that range. A render
-/// maps every pixel through the same few curves, and a table lookup costs a few nanoseconds where
-/// the exact map costs Φ and a knot search (and 33 of each once a footprint smooths the curve):
-/// the lookup table over (g/σ_M, σ_d/σ_M) that the method's proposal 14 allows, one σ_d at a time.
-/// Every path of a render maps through the same table, so they agree bit for bit.
-#[derive(Clone, Debug, PartialEq)]
+/// ±[`LUT_RANGE`]·σ_M (within the knots' span for the Gaussian abscissa) and interpolated by
+/// Catmull–Rom cubics; exact evaluation outside that range. A render maps every pixel through
+/// the same few curves, and a table lookup costs a few nanoseconds where the exact map costs Φ
+/// and a knot search (and 33 of each once a footprint smooths the curve): the lookup table over
+/// (g/σ_M, σ_d/σ_M) that the method's proposal 14 allows, one σ_d at a time.
+///
+/// Points are worked out when first read and kept (a morph touches hundreds of tables with a
+/// few thousand values each, which would not repay filling them), so whichever path reads a
+/// point, and whenever, it gets the same number: every path of a render agrees bit for bit.
+#[derive(Debug)]
 pub struct CurveLut {
     lo: f64,
     step: f64,
     inv_step: f64,
     sigma_m: f64,
     sigma_d: f64,
-    values: Vec<f64>,
+    /// Each point's bits once worked out, 0 before (a point that is +0.0 is worked out at every
+    /// read: the same number). Empty: nothing is kept.
+    values: Box<[AtomicU64]>,
 }
 
 /// Points of a [`CurveLut`] (32 KiB of f64).
@@ -525,17 +532,32 @@ impl CurveLut {
             let i = s as u32;
             let f = s - f64::from(i);
             let i = i as usize;
-            // An unfilled table works out the four points it needs: the same numbers.
-            let at = |k: usize| match self.values.get(k) {
-                Some(&v) => v,
-                None => curve.map_smoothed_with(self.lo + k as f64 * self.step, self.sigma_m, self.sigma_d, table),
-            };
-            let [a0, a1, a2, a3] = [at(i - 1), at(i), at(i + 1), at(i + 2)];
+            let [a0, a1, a2, a3] = [i - 1, i, i + 1, i + 2].map(|k| self.point(curve, table, k));
             // Catmull–Rom: cubic between the two middle points, slopes by central differences.
             a1 + 0.5 * f * ((a2 - a0) + f * ((2.0 * a0 - 5.0 * a1 + 4.0 * a2 - a3) + f * (3.0 * (a1 - a2) + a3 - a0)))
         } else {
             curve.map_smoothed_with(g, self.sigma_m, self.sigma_d, table)
         }
+    }
+
+    /// Point `k`: kept, or worked out (and kept where the table keeps points). Two threads may
+    /// both work out a point; they store the same bits.
+    #[inline]
+    fn point(&self, curve: &Curve, table: &CurveTable, k: usize) -> f64 {
+        let kept = self.values.get(k);
+        if let Some(bits) = kept.map(|v| v.load(Ordering::Relaxed)).filter(|&b| b != 0) {
+            return f64::from_bits(bits);
+        }
+        let v = curve.map_smoothed_with(self.lo + k as f64 * self.step, self.sigma_m, self.sigma_d, table);
+        if let Some(kept) = kept {
+            kept.store(v.to_bits(), Ordering::Relaxed);
+        }
+        v
+    }
+
+    /// How many points are kept (worked out and stored).
+    pub fn kept(&self) -> usize {
+        self.values.iter().filter(|v| v.load(Ordering::Relaxed) != 0).count()
     }
 }
 
@@ -770,12 +792,20 @@ impl Curve {
         CurveTable { x: (0..k).map(x).collect(), m: (0..k).map(|j| knot_slope(&x, &self.knots, j)).collect() }
     }
 
-    /// The [`CurveLut`] of this curve under (σ_M, σ_d); None where σ_M is not a positive finite
-    /// number (the map is then a step, which no table resolves).
-    /// Where its points lie, none worked out yet: [`CurveLut::map`] then computes the four it
-    /// needs at each call (the same numbers), for a one-off evaluation that would not repay a
-    /// table.
-    pub fn lut_unfilled(&self, sigma_m: f64, sigma_d: f64, _table: &CurveTable) -> Option<CurveLut> {
+    /// The [`CurveLut`] of this curve under (σ_M, σ_d), keeping its points as they are read;
+    /// None where σ_M is not a positive finite number (the map is then a step, which no table
+    /// resolves).
+    pub fn lut(&self, sigma_m: f64, sigma_d: f64) -> Option<CurveLut> {
+        self.lut_keeping(sigma_m, sigma_d, true)
+    }
+
+    /// [`Curve::lut`] keeping no points: each map works out the four it needs (the same
+    /// numbers), for a one-off evaluation that would not repay 32 KiB.
+    pub fn lut_unkept(&self, sigma_m: f64, sigma_d: f64) -> Option<CurveLut> {
+        self.lut_keeping(sigma_m, sigma_d, false)
+    }
+
+    fn lut_keeping(&self, sigma_m: f64, sigma_d: f64, keep: bool) -> Option<CurveLut> {
         if !(sigma_m.is_finite() && sigma_m > 0.0) {
             return None;
         }
@@ -793,16 +823,8 @@ impl Curve {
             return None;
         }
         let step = (hi - lo) / (LUT_POINTS - 1) as f64;
-        Some(CurveLut { lo, step, inv_step: 1.0 / step, sigma_m, sigma_d, values: Vec::new() })
-    }
-
-    /// [`Curve::lut_unfilled`] with its points worked out: what a render keeps.
-    pub fn lut(&self, sigma_m: f64, sigma_d: f64, table: &CurveTable) -> Option<CurveLut> {
-        let mut lut = self.lut_unfilled(sigma_m, sigma_d, table)?;
-        lut.values = (0..LUT_POINTS)
-            .map(|i| self.map_smoothed_with(lut.lo + i as f64 * lut.step, sigma_m, sigma_d, table))
-            .collect();
-        Some(lut)
+        let values = if keep { (0..LUT_POINTS).map(|_| AtomicU64::new(0)).collect() } else { Box::default() };
+        Some(CurveLut { lo, step, inv_step: 1.0 / step, sigma_m, sigma_d, values })
     }
 
     /// [`Curve::map_smoothed`] reading the knots' abscissae and slopes from `table` (from

@@ -483,7 +483,7 @@ fn the_curve_table_stays_within_a_sixteen_bit_step_of_the_exact_map() {
     // A render maps through `CurveLut`; its linear interpolation must not be visible in a 16-bit
     // output: within 2⁻¹⁶ of the curve's range of the exact map, for both abscissae, sharp
     // and smoothed, over the whole range the table covers (and exact beyond it).
-    use super::marginal::{CurveTable, LUT_RANGE};
+    use super::marginal::{CurveTable, LUT_POINTS, LUT_RANGE};
     // Skewed, with the channels shifted apart so each principal channel has a real histogram.
     let n = 256;
     let skewed = skewed_sample(n);
@@ -504,7 +504,7 @@ fn the_curve_table_stays_within_a_sixteen_bit_step_of_the_exact_map() {
                 let sigma_m = (super::SIGMA_N2 * ch.weights.iter().map(|w| w * w).sum::<f64>()).sqrt();
                 for sigma_d in [0.0, 0.05 * sigma_m, 0.5 * sigma_m] {
                     // A Gaussian-abscissa curve smoothed wider than its knots needs no table.
-                    let Some(lut) = curve.lut(sigma_m, sigma_d, &table) else {
+                    let Some(lut) = curve.lut(sigma_m, sigma_d) else {
                         assert_eq!(abscissa, Abscissa::Gaussian);
                         continue;
                     };
@@ -514,14 +514,17 @@ fn the_curve_table_stays_within_a_sixteen_bit_step_of_the_exact_map() {
                         let exact = curve.map_smoothed_with(g, sigma_m, sigma_d, &table);
                         let got = lut.map(curve, &table, g);
                         if i % 97 == 0 {
-                            let unfilled = curve.lut_unfilled(sigma_m, sigma_d, &table).unwrap();
-                            assert_eq!(unfilled.map(curve, &table, g).to_bits(), got.to_bits(), "unfilled at {g}");
+                            // Kept points, points worked out at each read, points read again.
+                            let unkept = curve.lut_unkept(sigma_m, sigma_d).unwrap();
+                            assert_eq!(unkept.map(curve, &table, g).to_bits(), got.to_bits(), "unkept at {g}");
+                            assert_eq!(lut.map(curve, &table, g).to_bits(), got.to_bits(), "read again at {g}");
                         }
                         if g.abs() > LUT_RANGE * sigma_m && abscissa == Abscissa::Quantile {
                             assert_eq!(got.to_bits(), exact.to_bits(), "beyond the table at {g}");
                         }
                         worst = worst.max((got - exact).abs() / range);
                     }
+                    assert!(lut.kept() > LUT_POINTS / 2, "{} points kept", lut.kept());
                     eprintln!(
                         "{abscissa:?} K={knots} σd/σM={:.2}: worst {worst:.2e} of the range {range:.3e}",
                         sigma_d / sigma_m
