@@ -86,6 +86,34 @@ fn bad_procedural_input_is_a_diagnostic_at_its_span() {
     let run = p.tessera(&["build", "scene.tess"]);
     run.failed();
     assert!(run.stderr().contains("parameter file"), "{}", run.stderr());
+    // A parameter file from a newer tessera: a good file but for its version.
+    let p = project(&base);
+    p.tessera(&["build", "scene.tess"]).ok();
+    let newer = p.read_text("out/scene/gravel_fit.toml").replacen("noise_version = 1", "noise_version = 99", 1);
+    let p = project(&base.replace("  from = gravel\n  histogram = on\n", "  params = \"newer.toml\"\n"));
+    p.write("newer.toml", &newer);
+    p.refuses("noise_version 99", "params = \"newer.toml\"");
+    // Curves on different abscissae have no knot-by-knot morph.
+    let quantile = base.replacen("  histogram = on\n", "  histogram = on\n  abscissa = quantile\n", 1);
+    let p = project(&quantile);
+    p.refuses("abscissa", "morph = grass_fit");
+}
+
+#[test]
+fn a_morph_between_textures_fitted_at_different_sizes_builds() {
+    // Gravel fitted from 128² (bands 2..7), grass from its centred 64² with 5 knots (bands
+    // 2..6): the in-between looks pad grass's missing finest band with zero and resample its
+    // curves; the two ends are each texture.
+    let p = project(
+        &scene().replace("  from = grass\n  histogram = on\n", "  from = grass\n  histogram = on\n  knots = 5\n"),
+    );
+    let grass = image::open(repo().join("samples/photos/grass.png")).unwrap().to_rgb32f();
+    let small = tessera::raster::Image::from_fn(64, 64, 3, |x, y, c| grass.get_pixel(x as u32 + 48, y as u32 + 48)[c]);
+    p.write_bytes("photos/grass.png", &common::png(&small));
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.ok();
+    let morph = image::open(p.path("out/scene/morph.png")).unwrap().to_rgb8();
+    assert_eq!(morph.dimensions(), (512, 128));
 }
 
 #[test]

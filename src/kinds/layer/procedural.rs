@@ -75,7 +75,9 @@ pub fn plan(p: &mut Planner, d: &Decl, texture: &str) -> Result<Handle<Image>, D
 
 fn run(cx: &RunCx, e: &Evaluating) -> Result<Image, StageError> {
     let params = cx.get(e.params);
-    let bands = params.channels[0].weights.len();
+    let other = e.morph.map(|(other, map)| (cx.get(other), cx.get(map)));
+    // A morph from or to a texture fitted at a larger sample reaches its finer bands.
+    let bands = params.channels[0].weights.len().max(other.as_ref().map_or(0, |(o, _)| o.channels[0].weights.len()));
     if e.gains.len() > bands {
         return Err(StageError::new(format!(
             "{} band gains for a texture of {bands} bands (2 to {})",
@@ -93,14 +95,12 @@ fn run(cx: &RunCx, e: &Evaluating) -> Result<Image, StageError> {
         Domain::Plane { origin: e.origin, pixel }
     };
     let (w, h) = e.size;
-    let out = match e.morph {
+    let out = match other {
         None => {
             let look = Look::new(&params, &e.gains);
             eval::render(&noise, w, h, domain, |_, _| &look)
         }
         Some((other, map)) => {
-            let other = cx.get(other);
-            let map = cx.get(map);
             let looks =
                 morph_looks(&params, &other, &e.gains).map_err(|e| StageError::new(e.to_string()).at_prop("morph"))?;
             // The map is read at the same relative position, whatever its size.

@@ -907,6 +907,21 @@ impl Curve {
         }
     }
 
+    /// The curve with `k` knots at its abscissa's positions for `k`, read off this one (itself
+    /// when it has `k` already). Knots never decrease, as the interpolation keeps monotone data
+    /// monotone; rounding is clamped.
+    pub fn resampled(&self, k: usize) -> Curve {
+        if k == self.knots.len() || k < 2 || self.knots.is_empty() {
+            return self.clone();
+        }
+        let mut knots: Vec<f64> = Vec::with_capacity(k);
+        for j in 0..k {
+            let v = self.eval_at(Curve::knot_abscissa(self.abscissa, j, k));
+            knots.push(knots.last().map_or(v, |&p: &f64| v.max(p)));
+        }
+        Curve { knots, ..self.clone() }
+    }
+
     /// Knot-by-knot linear interpolation (the paper's Fig. 15 morph; in quantile terms this is
     /// displacement interpolation of the two distributions). Both curves must have the same
     /// abscissa and K; t ∈ [0, 1], with t = 0 giving `self` and t = 1 `other` bit for bit.

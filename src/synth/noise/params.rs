@@ -402,10 +402,13 @@ impl Procedural {
     /// matched to `self`'s, by permutation and sign), the curves knot by knot. t = 0 is `self`
     /// bit for bit; t = 1 is `other` with its axes so matched (bit for bit `other` when they
     /// already are: a permuted or negated axis is the same texture, its channel's noise aside).
+    ///
+    /// Two textures fitted at different sample sizes (the paper morphs equal ones) differ in
+    /// their finest bands: the smaller sample has no power there, as it renders, so its missing
+    /// weights are zeros and in-between sets have the larger count (and sample size). Curves of
+    /// different knot counts are interpolated after the one with fewer knots is resampled at
+    /// the other's (quantile interpolation still); curves on different abscissae are an error.
     pub fn morph(&self, other: &Procedural, t: f64) -> Result<Procedural, NoiseError> {
-        if self.channels[0].weights.len() != other.channels[0].weights.len() {
-            return Err(NoiseError::Morph("the two textures were fitted at different sample sizes".into()));
-        }
         if (self.colour == ColourMode::Pca) != (other.colour == ColourMode::Pca) {
             return Err(NoiseError::Morph("one texture is in PCA colour, the other in RGB".into()));
         }
@@ -421,21 +424,42 @@ impl Procedural {
             let mean = std::array::from_fn(|c| lerp(self.mean[c], other.mean[c], t));
             (mean, self.u, [(0, false), (1, false), (2, false)])
         };
+        let bands = self.channels[0].weights.len().max(other.channels[0].weights.len());
+        let weight = |w: &[f64], k: usize| w.get(k).copied().unwrap_or(0.0);
         let mut channels = Vec::with_capacity(3);
         for (c, &(j, negate)) in order.iter().enumerate() {
             let (a, b) = (&self.channels[c], &other.channels[j]);
-            let weights = a.weights.iter().zip(&b.weights).map(|(&x, &y)| lerp(x, y, t)).collect();
+            let weights = if t == 1.0 {
+                b.weights.clone()
+            } else {
+                (0..bands).map(|k| lerp(weight(&a.weights, k), weight(&b.weights, k), t)).collect()
+            };
             let b_curve = b.curve.as_ref().map(|k| if negate { k.negated() } else { k.clone() });
             let curve = match (&a.curve, &b_curve) {
                 (None, None) => None,
                 (Some(_), Some(y)) if t == 1.0 => Some(y.clone()),
-                (Some(x), Some(y)) => Some(x.lerp(y, t)?),
+                (Some(x), Some(y)) if x.abscissa != y.abscissa => {
+                    return Err(NoiseError::Morph(format!(
+                        "one texture's curves are on the {:?} abscissa, the other's on the {:?}",
+                        x.abscissa, y.abscissa
+                    )))
+                }
+                (Some(x), Some(y)) => {
+                    let k = x.knots.len().max(y.knots.len());
+                    let (x, y) = (x.resampled(k), y.resampled(k));
+                    Some(x.lerp(&y, t)?)
+                }
                 _ => return Err(NoiseError::Morph("one texture has a histogram curve, the other none".into())),
             };
             channels.push(Channel { weights, curve });
         }
         let channels: [Channel; 3] = channels.try_into().map_err(|_| NoiseError::Morph("three channels".into()))?;
-        Ok(Procedural { mean, u, channels, ..self.clone() })
+        let sample_size = if t == 1.0 || other.channels[0].weights.len() > self.channels[0].weights.len() {
+            other.sample_size
+        } else {
+            self.sample_size
+        };
+        Ok(Procedural { mean, u, channels, sample_size, ..self.clone() })
     }
 }
 

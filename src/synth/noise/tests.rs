@@ -447,6 +447,56 @@ fn a_morph_starts_and_ends_at_its_textures() {
 }
 
 #[test]
+fn a_morph_between_different_sample_sizes_and_knot_counts_pads_and_resamples() {
+    // Issue 16, bad input: the paper morphs textures of one size. A 128² fit (bands 2..7, 17
+    // knots) into a 64² one (bands 2..6, 5 knots): the smaller has no finest band, as it renders.
+    let histogram = |knots| FitOptions { histogram: HistogramMode::On, knots, ..FitOptions::default() };
+    let a = fit(&correlated_sample(128), &histogram(17)).unwrap().params;
+    let b = fit(&skewed_sample(64), &histogram(5)).unwrap().params;
+    assert_eq!((a.channels[0].weights.len(), b.channels[0].weights.len()), (6, 5));
+    assert_eq!(a.morph(&b, 0.0).unwrap(), a);
+    let end = a.morph(&b, 1.0).unwrap();
+    assert_eq!((end.sample_size, end.channels[0].weights.len()), (64, 5));
+    let half = a.morph(&b, 0.5).unwrap();
+    assert_eq!(half.sample_size, 128);
+    for (c, ch) in half.channels.iter().enumerate() {
+        assert_eq!(ch.weights.len(), 6);
+        assert_eq!(ch.weights[5], a.channels[c].weights[5] * 0.5, "band 7 halfway to none");
+        assert_eq!(ch.curve.as_ref().unwrap().knots.len(), 17);
+    }
+    // The other way round: the in-between sets take the larger sample's size and bands.
+    let back = b.morph(&a, 0.25).unwrap();
+    assert_eq!((back.sample_size, back.channels[0].weights.len()), (128, 6));
+    // The end set rendered with the larger noise (6 bands) is the 5-band texture, bit for bit:
+    // the extra band adds nothing.
+    let (n6, n5) = (
+        Noise::new(3, end.tile, 6, end.colour, false).unwrap(),
+        Noise::new(3, end.tile, 5, end.colour, false).unwrap(),
+    );
+    let look = Look::new(&end, &[]);
+    let domain = Domain::Plane { origin: [0.0; 2], pixel: 1.0 / 128.0 };
+    let six = eval::render(&n6, 128, 128, domain, |_, _| &look).unwrap();
+    let five = eval::render(&n5, 128, 128, domain, |_, _| &look).unwrap();
+    assert_eq!(
+        six.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+        five.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    );
+    // Resampling keeps the curve: at its own knot count it is itself, at 2K − 1 knots its old
+    // knots are every other one.
+    let curve = a.channels[0].curve.clone().unwrap();
+    assert_eq!(curve.resampled(17), curve);
+    let fine = curve.resampled(33);
+    for (j, &k) in curve.knots.iter().enumerate() {
+        assert!((fine.knots[2 * j] - k).abs() <= 1e-12 * (1.0 + k.abs()), "knot {j}: {} vs {k}", fine.knots[2 * j]);
+    }
+    assert!(fine.knots.windows(2).all(|w| w[0] <= w[1]));
+    // Curves on different abscissae stay an error (there is no knot-by-knot correspondence).
+    let quantile =
+        fit(&skewed_sample(64), &FitOptions { abscissa: Abscissa::Quantile, ..histogram(5) }).unwrap().params;
+    assert!(a.morph(&quantile, 0.5).is_err());
+}
+
+#[test]
 fn samples_are_cropped_to_a_power_of_two_and_tiny_ones_refused() {
     // Item 25.
     let sample = skewed_sample(128);
