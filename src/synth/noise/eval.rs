@@ -280,8 +280,16 @@ impl Noise {
                 let sigma_d = (SIGMA_N2 * dropped).sqrt();
                 if look.curves[c].is_some() {
                     let lut = buf.memo.get(look, c, sigma_d);
-                    for g in g.iter_mut() {
-                        *g = look.map(c, *g, sigma_d, lut);
+                    if let (Some(curve), Some(lut)) = (&look.curves[c], lut.as_ref()) {
+                        // `Look::map`'s table arm, hoisted out of the row.
+                        let table = &look.tables[c];
+                        for g in g.iter_mut() {
+                            *g = lut.map(curve, table, *g);
+                        }
+                    } else {
+                        for g in g.iter_mut() {
+                            *g = look.map(c, *g, sigma_d, lut);
+                        }
                     }
                 }
             }

@@ -532,7 +532,8 @@ impl CurveLut {
             let i = s as u32;
             let f = s - f64::from(i);
             let i = i as usize;
-            let [a0, a1, a2, a3] = [i - 1, i, i + 1, i + 2].map(|k| self.point(curve, table, k));
+            let (a0, a1) = (self.point(curve, table, i - 1), self.point(curve, table, i));
+            let (a2, a3) = (self.point(curve, table, i + 1), self.point(curve, table, i + 2));
             // Catmull–Rom: cubic between the two middle points, slopes by central differences.
             a1 + 0.5 * f * ((a2 - a0) + f * ((2.0 * a0 - 5.0 * a1 + 4.0 * a2 - a3) + f * (3.0 * (a1 - a2) + a3 - a0)))
         } else {
@@ -542,14 +543,19 @@ impl CurveLut {
 
     /// Point `k`: kept, or worked out (and kept where the table keeps points). Two threads may
     /// both work out a point; they store the same bits.
-    #[inline]
+    #[inline(always)]
     fn point(&self, curve: &Curve, table: &CurveTable, k: usize) -> f64 {
-        let kept = self.values.get(k);
-        if let Some(bits) = kept.map(|v| v.load(Ordering::Relaxed)).filter(|&b| b != 0) {
-            return f64::from_bits(bits);
+        match self.values.get(k).map(|v| v.load(Ordering::Relaxed)) {
+            Some(bits) if bits != 0 => f64::from_bits(bits),
+            _ => self.work_out(curve, table, k),
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn work_out(&self, curve: &Curve, table: &CurveTable, k: usize) -> f64 {
         let v = curve.map_smoothed_with(self.lo + k as f64 * self.step, self.sigma_m, self.sigma_d, table);
-        if let Some(kept) = kept {
+        if let Some(kept) = self.values.get(k) {
             kept.store(v.to_bits(), Ordering::Relaxed);
         }
         v
