@@ -165,22 +165,56 @@ pub fn phi_inv(u: f64) -> f64 {
 // ---------------------------------------------------------------------------------------------
 // Gaussianisation and distribution checks.
 
+/// A channel's values in ascending order, each with its index: what rank Gaussianisation and
+/// the curve fit both read, so an analysis sorts each channel once.
+#[derive(Clone, Debug)]
+pub struct Ranked {
+    order: Vec<(f64, u32)>,
+}
+
+impl Ranked {
+    /// Sorts `values` (finite, at most 2³² of them). By radix on the values' bits (the total
+    /// order of `f64::total_cmp`), about four times the speed of a comparison sort at 512²;
+    /// the order among equal values is left as it falls, as everything read from it treats
+    /// equal values alike.
+    pub fn new(values: &[f64]) -> Result<Ranked, MarginalError> {
+        check_values(values)?;
+        if u32::try_from(values.len()).is_err() {
+            return Err(MarginalError::Overflow);
+        }
+        let mut order: Vec<(f64, u32)> = values.iter().copied().zip(0..).collect();
+        radsort::sort_by_key(&mut order, |&(v, _)| v);
+        Ok(Ranked { order })
+    }
+
+    /// The values in ascending order.
+    pub fn sorted(&self) -> Vec<f64> {
+        self.order.iter().map(|&(v, _)| v).collect()
+    }
+}
+
 /// Proposal 7 (tessera's choice for "a variance that best fits the histogram"): replaces each
 /// value by the Gaussian quantile of its rank, `g = σ·Φ⁻¹((rank + ½)/P)`, with mid-ranks for
 /// ties and σ the population standard deviation of the values. Order preserving, equal inputs
 /// give equal outputs, and the result is N(0, σ²) up to the 1/(2P) of its empirical steps.
 /// Returns the Gaussianised values (in input order) and σ. A constant channel maps to zeros.
 pub fn gaussianize(values: &[f64]) -> Result<(Vec<f64>, f64), MarginalError> {
+    gaussianize_ranked(values, &Ranked::new(values)?)
+}
+
+/// [`gaussianize`] with `values` already ranked ([`Ranked::new`] of the same values).
+pub fn gaussianize_ranked(values: &[f64], ranked: &Ranked) -> Result<(Vec<f64>, f64), MarginalError> {
     check_values(values)?;
     let p = values.len();
+    let order = &ranked.order;
+    if order.len() != p {
+        return Err(MarginalError::Empty);
+    }
     let mean = values.iter().sum::<f64>() / p as f64;
     let sigma = libm::sqrt(values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / p as f64);
     if !sigma.is_finite() {
         return Err(MarginalError::Overflow);
     }
-    // (value, index) pairs sort in place, contiguously; the index makes the order total.
-    let mut order: Vec<(f64, usize)> = values.iter().copied().zip(0..).collect();
-    order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let mut out = vec![0.0; p];
     let mut start = 0;
     while start < p {
@@ -194,7 +228,7 @@ pub fn gaussianize(values: &[f64]) -> Result<(Vec<f64>, f64), MarginalError> {
         let u = (start + end) as f64 * 0.5 / p as f64;
         let g = sigma * phi_inv(u);
         for &(_, i) in &order[start..end] {
-            out[i] = g;
+            out[i as usize] = g;
         }
         start = end;
     }
@@ -640,9 +674,13 @@ impl Curve {
     /// of the empirical inverse CDF at the abscissa's positions. Knots never decrease.
     pub fn fit(values: &[f64], k: usize, abscissa: Abscissa) -> Result<Curve, MarginalError> {
         check_knot_count(k)?;
-        check_values(values)?;
-        let mut s = values.to_vec();
-        s.sort_unstable_by(f64::total_cmp);
+        Curve::fit_sorted(&Ranked::new(values)?.sorted(), k, abscissa)
+    }
+
+    /// [`Curve::fit`] to values already sorted (ascending, finite, at least one).
+    pub fn fit_sorted(s: &[f64], k: usize, abscissa: Abscissa) -> Result<Curve, MarginalError> {
+        check_knot_count(k)?;
+        check_values(s)?;
         let mut knots = Vec::with_capacity(k);
         for i in 0..k {
             let u = match abscissa {

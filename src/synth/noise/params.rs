@@ -8,10 +8,11 @@
 //! file read back is the parameter set that was written. Metadata (the noise version, seed,
 //! tile size and sample size) says which noise the numbers drive; the paper does not count it.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::colour::{pca, ColourMode, Pca};
-use super::marginal::{gaussianize, needs_histogram, Abscissa, Curve};
+use super::marginal::{gaussianize_ranked, needs_histogram, Abscissa, Curve, Ranked};
 use super::spectrum::{self, BandPowers, Border};
 use super::tile::{self, Tile};
 use super::NoiseError;
@@ -170,39 +171,42 @@ pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
             (mean, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], out)
         }
     };
-    let tile = tile::normalised(2, opts.tile, opts.seed, super::SIGMA_N2)?;
     let leakage = match opts.estimator {
-        Estimator::Nnls => Some(leakage(&tile, n, opts.seed)?),
+        Estimator::Nnls => Some(leakage(&tile::normalised(2, opts.tile, opts.seed, super::SIGMA_N2)?, n, opts.seed)?),
         Estimator::Paper => None,
     };
-    let mut powers = Vec::with_capacity(3);
-    let mut channels = Vec::with_capacity(3);
-    for values in &decorrelated {
-        let on = match opts.histogram {
-            HistogramMode::On => true,
-            HistogramMode::Off => false,
-            HistogramMode::Auto => needs_histogram(values),
-        };
-        let (gauss, curve) = if on {
-            let mut curve = Curve::fit(values, opts.knots, opts.abscissa)?;
-            // A Gaussian-abscissa curve clamps at its end knots (z = ±3: 0.13 % of each tail),
-            // so it costs no numbers beyond its knots, like the paper's.
-            if let (Some(&lo), Some(&hi)) = (curve.knots.first(), curve.knots.last()) {
-                curve.min = lo;
-                curve.max = hi;
-            }
-            (gaussianize(values)?.0, Some(curve))
-        } else {
-            (values.clone(), None)
-        };
-        let p = spectrum::band_powers_with(&gauss, n, opts.border)?;
-        let weights = match &leakage {
-            None => spectrum::weights_paper(&p, super::SIGMA_N2),
-            Some(k) => spectrum::weights_nnls(&p, k)?,
-        };
-        powers.push(p);
-        channels.push(Channel { weights, curve });
-    }
+    // The three channels are independent from here: in parallel (each is the same numbers
+    // whichever thread fits it).
+    let fitted = decorrelated
+        .par_iter()
+        .map(|values| -> Result<(BandPowers, Channel), NoiseError> {
+            let on = match opts.histogram {
+                HistogramMode::On => true,
+                HistogramMode::Off => false,
+                HistogramMode::Auto => needs_histogram(values),
+            };
+            let (gauss, curve) = if on {
+                let ranked = Ranked::new(values)?;
+                let mut curve = Curve::fit_sorted(&ranked.sorted(), opts.knots, opts.abscissa)?;
+                // A Gaussian-abscissa curve clamps at its end knots (z = ±3: 0.13 % of each
+                // tail), so it costs no numbers beyond its knots, like the paper's.
+                if let (Some(&lo), Some(&hi)) = (curve.knots.first(), curve.knots.last()) {
+                    curve.min = lo;
+                    curve.max = hi;
+                }
+                (gaussianize_ranked(values, &ranked)?.0, Some(curve))
+            } else {
+                (values.clone(), None)
+            };
+            let p = spectrum::band_powers_with(&gauss, n, opts.border)?;
+            let weights = match &leakage {
+                None => spectrum::weights_paper(&p, super::SIGMA_N2),
+                Some(k) => spectrum::weights_nnls(&p, k)?,
+            };
+            Ok((p, Channel { weights, curve }))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let (powers, channels): (Vec<BandPowers>, Vec<Channel>) = fitted.into_iter().unzip();
     let luminance: Vec<f64> = (0..m).map(|i| (cropped[0][i] + cropped[1][i] + cropped[2][i]) / 3.0).collect();
     let anisotropy = spectrum::anisotropy(&luminance, n)?;
     let channels: [Channel; 3] = channels.try_into().map_err(|_| NoiseError::Sample("three channels".into()))?;
