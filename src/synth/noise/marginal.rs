@@ -687,7 +687,7 @@ impl Curve {
                 Abscissa::Quantile => Curve::knot_abscissa(abscissa, i, k),
                 Abscissa::Gaussian => phi(Curve::knot_abscissa(abscissa, i, k)),
             };
-            let y = empirical_quantile(&s, u);
+            let y = empirical_quantile(s, u);
             // Rounding between two order statistics must not let a knot dip below its
             // predecessor (a parameter file with decreasing knots is refused on reading).
             knots.push(knots.last().map_or(y, |&p: &f64| y.max(p)));
