@@ -73,6 +73,9 @@ fn bad_procedural_input_is_a_diagnostic_at_its_span() {
     let run = p.tessera(&["build", "scene.tess"]);
     run.failed();
     assert!(run.stderr().contains("zoom = 0"), "{}", run.stderr());
+    // So far out that f64 keeps no fraction of the finest band's cells.
+    let p = project(&base.replace("  zoom = 8\n", "  zoom = 8\n  origin = [1e30, 0]\n"));
+    p.refuses("no precision left", "origin = [1e30, 0]");
     let p = project(&(base.clone() + "\nlayer grown {\n  quilt = gravel\n  zoom = 2\n}\n"));
     p.refuses("applies only to layers evaluated from a procedural texture", "zoom = 2");
     // A sample too small to have three bands.
@@ -128,4 +131,67 @@ fn an_anisotropic_sample_is_warned_about() {
     let run = p.tessera(&["build", "scene.tess"]);
     run.ok();
     assert!(run.stderr().contains("not isotropic"), "{}", run.stderr());
+}
+
+/// A small scene: a fit of the gravel photo and one layer under test, 32² so each case is quick.
+fn hostile_scene(procedural: &str, layer: &str) -> String {
+    format!(
+        "scene {{\n  seed = 3\n  size = 32 x 32\n}}\n\nsample gravel {{\n  image = \"photos/gravel.png\"\n}}\n\n\
+         procedural fit {{\n  from = gravel\n  histogram = on\n{procedural}}}\n\n\
+         layer under_test {{\n{layer}}}\n\noutput \"out.png\" {{\n  from = under_test\n}}\n"
+    )
+}
+
+#[test]
+fn hostile_numbers_in_noise_and_tiling_properties_build_or_are_diagnostics() {
+    // Every new property at 0, negative, tiny, huge and overflowing (which the language refuses
+    // for every number), and at the extremes it lets through (which reach the algorithms): the
+    // build either succeeds or exits 1 with a diagnostic that names the property, never a panic
+    // or a hang.
+    let reals = [
+        "0", "-1", "1e-300", "1e300", "1e999", "-1e300", "1e-30", "-1e-30", "0.0001", "0.001", "0.999999", "1000",
+        "1000000", "1e30", "3e38", "-3e38",
+    ];
+    let mut cases: Vec<(String, String, &str)> = Vec::new();
+    for v in reals {
+        let noise = |extra: String| ("".to_string(), format!("  procedural = fit\n{extra}"));
+        for (prop, line) in [
+            ("zoom", format!("  zoom = {v}\n")),
+            ("origin", format!("  origin = [{v}, 0]\n")),
+            ("origin", format!("  origin = [0, {v}]\n")),
+            ("band_gain", format!("  band_gain = [1, {v}]\n")),
+            ("slice", format!("  solid = true\n  slice = {v}\n")),
+        ] {
+            let (p, l) = noise(line);
+            cases.push((p, l, prop));
+        }
+        for (prop, line) in [
+            ("cell", format!("  cell = {v}\n")),
+            ("contrast", format!("  grid = hex\n  contrast = {v}\n")),
+            ("cell_rotation", format!("  cell_rotation = {v} deg\n")),
+        ] {
+            cases.push(("".to_string(), format!("  tiling = gravel\n{line}"), prop));
+        }
+    }
+    for v in ["0", "-1", "1", "3", "257", "1000000", "99999999999999999999"] {
+        cases.push((format!("  knots = {v}\n"), "  procedural = fit\n".to_string(), "knots"));
+        cases.push((format!("  tile = {v}\n"), "  procedural = fit\n".to_string(), "tile"));
+    }
+    let (mut built, mut refused) = (0, 0);
+    for (procedural, layer, prop) in &cases {
+        let p = project(&hostile_scene(procedural, layer));
+        let run = p.tessera(&["build", "scene.tess"]);
+        let err = run.stderr();
+        assert!(!err.contains("panicked"), "{prop} in\n{procedural}{layer}:\n{err}");
+        match run.code() {
+            0 => built += 1,
+            1 => {
+                assert!(err.contains(prop), "the diagnostic names `{prop}` for\n{procedural}{layer}:\n{err}");
+                assert!(!p.path("out/scene").exists(), "nothing is written");
+                refused += 1;
+            }
+            code => panic!("exit {code} for {prop} in\n{procedural}{layer}:\n{err}"),
+        }
+    }
+    eprintln!("{} hostile cases: {built} built, {refused} refused with a diagnostic", cases.len());
 }

@@ -89,12 +89,27 @@ fn run(cx: &RunCx, e: &Evaluating) -> Result<Image, StageError> {
     let noise =
         Noise::new(e.seed, params.tile, bands, params.colour, e.solid).map_err(|e| StageError::new(e.to_string()))?;
     let pixel = 1.0 / (params.sample_size as f64 * e.zoom);
+    let (w, h) = e.size;
+    // The finest band's lattice is 2^(bands+1) cells per sample width; far out, f64 keeps no
+    // fraction of a cell and every pixel would read the same taps.
+    let limit = 2f64.powi(40) / 2f64.powi(bands as i32 + 1);
+    let reach = |at: f64, extent: usize| at.abs() + extent as f64 * pixel;
+    for (prop, r) in [
+        ("origin", reach(e.origin[0], w).max(reach(e.origin[1], h))),
+        ("slice", if e.solid { e.slice.abs() } else { 0.0 }),
+    ] {
+        if r.is_nan() || r > limit {
+            return Err(StageError::new(format!(
+                "{prop} reaches {r:.3e} sample widths: beyond {limit:.3e} the finest band has no precision left                  (f64 keeps no fraction of its lattice cells)"
+            ))
+            .at_prop(prop));
+        }
+    }
     let domain = if e.solid {
         Domain::Slice { origin: [e.origin[0], e.origin[1], e.slice], u: [1.0, 0.0, 0.0], v: [0.0, 1.0, 0.0], pixel }
     } else {
         Domain::Plane { origin: e.origin, pixel }
     };
-    let (w, h) = e.size;
     let out = match other {
         None => {
             let look = Look::new(&params, &e.gains);
