@@ -61,6 +61,13 @@ fn bench(c: &mut Criterion) {
             b.iter(|| black_box(tiling::render(&prep, &p, 512, 512, [0.0, 0.0, 4.0, 4.0]).unwrap()))
         });
     }
+    g.sample_size(10);
+    for grid in [Grid::Triangle, Grid::Hex] {
+        let p = TilingParams { grid, ..TilingParams::default() };
+        g.bench_function(format!("tiling {grid:?} 128² → 4096²"), |b| {
+            b.iter(|| black_box(tiling::render(&prep, &p, 4096, 4096, [0.0, 0.0, 32.0, 32.0]).unwrap()))
+        });
+    }
     g.finish();
 }
 

@@ -45,6 +45,10 @@ pub enum MarginalError {
     BadParameter(f64),
     #[error("the values are too large: their variance overflows")]
     Overflow,
+    #[error("{0} values: a channel ranks at most 2³² of them")]
+    TooMany(usize),
+    #[error("{ranked} ranked values for {values} values (rank the same values)")]
+    RankedMismatch { ranked: usize, values: usize },
 }
 
 fn check_values(values: &[f64]) -> Result<(), MarginalError> {
@@ -180,7 +184,7 @@ impl Ranked {
     pub fn new(values: &[f64]) -> Result<Ranked, MarginalError> {
         check_values(values)?;
         if u32::try_from(values.len()).is_err() {
-            return Err(MarginalError::Overflow);
+            return Err(MarginalError::TooMany(values.len()));
         }
         let mut order: Vec<(f64, u32)> = values.iter().copied().zip(0..).collect();
         radsort::sort_by_key(&mut order, |&(v, _)| v);
@@ -208,7 +212,7 @@ pub fn gaussianize_ranked(values: &[f64], ranked: &Ranked) -> Result<(Vec<f64>, 
     let p = values.len();
     let order = &ranked.order;
     if order.len() != p {
-        return Err(MarginalError::Empty);
+        return Err(MarginalError::RankedMismatch { ranked: order.len(), values: p });
     }
     let mean = values.iter().sum::<f64>() / p as f64;
     let sigma = libm::sqrt(values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / p as f64);
@@ -1130,6 +1134,33 @@ mod tests {
         assert!(matches!(gaussianize(&[1.0, f64::NAN]), Err(MarginalError::NonFinite { index: 1, .. })));
         assert!(matches!(gaussianize(&[f64::INFINITY]), Err(MarginalError::NonFinite { index: 0, .. })));
         assert_eq!(gaussianize(&[f64::MAX, -f64::MAX, 0.0]), Err(MarginalError::Overflow));
+    }
+
+    #[test]
+    fn ranking_sorts_as_total_order_and_ties_share_a_rank() {
+        // The radix sort against the comparison sort, on values with ties, both zeros, negatives
+        // and subnormals; ties (−0 and +0 among them) get one Gaussian value.
+        let mut values: Vec<f64> = sample("lognormal").iter().map(|v| (v * 8.0).round() / 8.0 - 1.0).collect();
+        values.extend([0.0, -0.0, 0.0, f64::MIN_POSITIVE / 4.0, -f64::MIN_POSITIVE / 4.0, -1e100, 1e100]);
+        let mut want = values.clone();
+        want.sort_by(f64::total_cmp);
+        let ranked = Ranked::new(&values).unwrap();
+        let got = ranked.sorted();
+        assert_eq!(
+            got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            want.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+        let (g, _) = gaussianize_ranked(&values, &ranked).unwrap();
+        for (i, a) in values.iter().enumerate() {
+            for (j, b) in values.iter().enumerate().skip(i + 1).step_by(97) {
+                assert_eq!(a == b, g[i] == g[j], "{a} and {b}");
+                assert_eq!(a < b, g[i] < g[j], "{a} and {b}");
+            }
+        }
+        assert_eq!(
+            gaussianize_ranked(&values[1..], &ranked),
+            Err(MarginalError::RankedMismatch { ranked: values.len(), values: values.len() - 1 })
+        );
     }
 
     #[test]
