@@ -100,7 +100,7 @@ fn run(cx: &RunCx, e: &Evaluating) -> Result<Image, StageError> {
     ] {
         if r.is_nan() || r > limit {
             return Err(StageError::new(format!(
-                "{prop} reaches {r:.3e} sample widths: beyond {limit:.3e} the finest band has no precision left                  (f64 keeps no fraction of its lattice cells)"
+                "{prop} reaches {r:.3e} sample widths: beyond {limit:.3e} the finest band has no precision left (f64 keeps no fraction of its lattice cells)"
             ))
             .at_prop(prop));
         }

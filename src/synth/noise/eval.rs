@@ -140,6 +140,9 @@ impl Look {
     /// Channel `c`'s curve table under `sigma_d` (None without a curve, or where the curve
     /// takes none).
     fn lut(&self, c: usize, sigma_d: f64) -> SharedLut {
+        if !self.tabulate {
+            return Arc::new(None);
+        }
         let bits = sigma_d.to_bits();
         // A poisoned lock only means another thread panicked mid-render; the list is still valid.
         let mut list = self.luts.0.lock().unwrap_or_else(|e| e.into_inner());
@@ -147,9 +150,6 @@ impl Look {
             return lut.clone();
         }
         let (curve, sigma_m) = (self.curves[c].as_ref(), self.sigma_m[c]);
-        if !self.tabulate {
-            return Arc::new(None);
-        }
         if list.len() >= MAX_LUTS {
             // A caller sweeping the footprint would grow the list without end: past the cap, each
             // call works out the points it needs (the same numbers, more slowly).
@@ -278,18 +278,12 @@ impl Noise {
                     }
                 }
                 let sigma_d = (SIGMA_N2 * dropped).sqrt();
-                if look.curves[c].is_some() {
-                    let lut = buf.memo.get(look, c, sigma_d);
-                    if let (Some(curve), Some(lut)) = (&look.curves[c], lut.as_ref()) {
-                        // `Look::map`'s table arm, hoisted out of the row.
-                        let table = &look.tables[c];
-                        for g in g.iter_mut() {
-                            *g = lut.map(curve, table, *g);
-                        }
-                    } else {
-                        for g in g.iter_mut() {
-                            *g = look.map(c, *g, sigma_d, lut);
-                        }
+                // `Look::map`, its arm chosen once for the row.
+                if let Some(curve) = &look.curves[c] {
+                    let (table, sigma_m) = (&look.tables[c], look.sigma_m[c]);
+                    match buf.memo.get(look, c, sigma_d).as_ref() {
+                        Some(lut) => g.iter_mut().for_each(|g| *g = lut.map(curve, table, *g)),
+                        None => g.iter_mut().for_each(|g| *g = curve.map_smoothed_with(*g, sigma_m, sigma_d, table)),
                     }
                 }
             }

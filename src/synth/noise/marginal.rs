@@ -600,7 +600,8 @@ impl CurveLut {
     }
 
     /// How many points are kept (worked out and stored).
-    pub fn kept(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn kept(&self) -> usize {
         self.values.iter().filter(|v| v.load(Ordering::Relaxed) != 0).count()
     }
 }
@@ -650,6 +651,11 @@ fn wide_smoothing(k: usize) -> f64 {
     (6.0 / (k.max(2) - 1) as f64).clamp(0.25, 0.75)
 }
 
+/// Appends `v`, raised to the last knot where rounding put it below (knots never decrease).
+fn push_not_below(knots: &mut Vec<f64>, v: f64) {
+    knots.push(knots.last().map_or(v, |&p| v.max(p)));
+}
+
 /// The empirical quantile of sorted `s` at `u` ∈ [0,1], linear between order statistics at
 /// positions (P−1)·u (so u = 0 is the min and u = 1 the max).
 fn empirical_quantile(s: &[f64], u: f64) -> f64 {
@@ -694,7 +700,7 @@ impl Curve {
             let y = empirical_quantile(s, u);
             // Rounding between two order statistics must not let a knot dip below its
             // predecessor (a parameter file with decreasing knots is refused on reading).
-            knots.push(knots.last().map_or(y, |&p: &f64| y.max(p)));
+            push_not_below(&mut knots, y);
         }
         Ok(Curve { abscissa, knots, min: s[0], max: s[s.len() - 1] })
     }
@@ -965,7 +971,7 @@ impl Curve {
         let mut knots: Vec<f64> = Vec::with_capacity(k);
         for j in 0..k {
             let v = self.eval_at(Curve::knot_abscissa(self.abscissa, j, k));
-            knots.push(knots.last().map_or(v, |&p: &f64| v.max(p)));
+            push_not_below(&mut knots, v);
         }
         Curve { knots, ..self.clone() }
     }
