@@ -195,3 +195,53 @@ fn hostile_numbers_in_noise_and_tiling_properties_build_or_are_diagnostics() {
     }
     eprintln!("{} hostile cases: {built} built, {refused} refused with a diagnostic", cases.len());
 }
+
+/// Every number of a parameter file, in order.
+fn numbers(p: &Procedural) -> Vec<f64> {
+    let mut all: Vec<f64> = p.mean.iter().chain(p.u.iter().flatten()).copied().collect();
+    for c in &p.channels {
+        all.extend(&c.weights);
+        if let Some(curve) = &c.curve {
+            all.extend(curve.knots.iter().chain([&curve.min, &curve.max]));
+        }
+    }
+    all
+}
+
+#[test]
+fn sixteen_bit_png_and_exr_samples_fit_like_the_8_bit_photo_and_layers_write_exr() {
+    // The same gravel as a 16-bit PNG (each 8-bit value v stored as 257·v, the same fraction of
+    // full scale) and as a linear-light EXR (the photo's sRGB values decoded to linear): all three
+    // are one image once the sample has read them, so all three fit the same texture.
+    let p = project(&scene());
+    p.tessera(&["build", "scene.tess"]).ok();
+    let eight = Procedural::from_toml(&p.read_text("out/scene/gravel_fit.toml")).expect("8-bit fit");
+    let one = tessera::raster::io::decode(&p.read("out/scene/one.png")).expect("PNG output");
+    let photo = image::open(repo().join("samples/photos/gravel.png")).unwrap().to_rgb8();
+    let (w, h) = (photo.width() as usize, photo.height() as usize);
+    let encoded =
+        tessera::raster::Image::from_fn(w, h, 3, |x, y, c| photo.get_pixel(x as u32, y as u32)[c] as f32 / 255.0);
+    let sixteen = tessera::raster::io::encode_png(&encoded, 16).expect("16-bit PNG");
+    assert_eq!(tessera::raster::io::png_bit_depth(&sixteen), Some(16));
+    let linear = tessera::raster::color::image_srgb_to_linear(&encoded);
+    let exr = tessera::raster::io::encode_exr(&linear).expect("EXR");
+    for (file, bytes) in [("photos/gravel16.png", sixteen), ("photos/gravel.exr", exr)] {
+        p.write_bytes(file, &bytes);
+        let text = scene().replace("photos/gravel.png", file).replace("output \"one.png\"", "output \"one.exr\"");
+        p.write("scene.tess", &text);
+        p.tessera(&["build", "scene.tess"]).ok();
+        let fitted = Procedural::from_toml(&p.read_text("out/scene/gravel_fit.toml")).expect("fit");
+        assert_eq!(fitted.sample_size, eight.sample_size, "{file}");
+        let (a, b) = (numbers(&eight), numbers(&fitted));
+        assert_eq!(a.len(), b.len(), "{file}");
+        let worst = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        eprintln!("{file}: largest parameter difference from the 8-bit fit {worst:.2e}");
+        assert!(worst < 1e-4, "{file}: parameters differ by up to {worst}");
+        // The 1× layer as EXR: linear light, the same picture as the PNG once encoded.
+        let out = tessera::raster::io::decode(&p.read("out/scene/one.exr")).expect("EXR output");
+        assert_eq!((out.width, out.height, out.channels), (128, 128, 3));
+        let shown = tessera::raster::color::image_linear_to_srgb(&out);
+        let off = shown.data.iter().zip(&one.data).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
+        assert!(off <= 1.5 / 255.0, "{file}: the EXR layer differs from the 8-bit PNG one by {off}");
+    }
+}
