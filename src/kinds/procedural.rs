@@ -47,6 +47,7 @@ pub static SPEC: KindSpec = KindSpec {
         PropSpec { name: "estimator", ty: Ty::Enum(ESTIMATORS.names), default: Default::Text("paper"), doc: "Band weights from band powers: `paper` (eq. 9, each band alone) or `nnls` (least squares against the simulated leakage between bands: closer for spectra that fall steeply)." },
         PropSpec { name: "border", ty: Ty::Enum(BORDERS.names), default: Default::Text("none"), doc: "`none` (the paper) or `periodic_smooth` (Moisan's decomposition: the sample's borders leak no power along the axes)." },
         PropSpec { name: "tile", ty: Ty::Int(8, 1024), default: Default::Text("256"), doc: "Side of the noise tile (even): a band repeats every tile / 2^b sample widths." },
+        PropSpec { name: "extrapolate_bands", ty: Ty::Int(0, 4), default: Default::Text("0"), doc: "Bands finer than the sample's pixels, added on the line log₂ w_b follows over the top four fitted bands: detail in renders magnified past the sample's resolution (each band doubles it), where the fit alone looks blurred. The parameter file lists them after the fitted weights." },
     ],
 };
 
@@ -121,13 +122,16 @@ impl super::Kind for ProceduralKind {
                     border: BORDERS.get(props.enumeration("border")),
                     tile: tile_side(d)?,
                     seed: p.seed(d, "analysis"),
+                    extrapolate: props.int("extrapolate_bands") as usize,
                 };
                 let fitting = Fitting { sample: inputs.add(p.value::<Image>(from, at)?), options };
                 let stage = FnStage::keyed("procedural.fit", 1, fitting, run_fit);
                 p.add(format!("procedural {}", d.name), stage, inputs, vec![])
             }
             (None, Some(path)) => {
-                for key in ["colour", "histogram", "knots", "abscissa", "estimator", "border", "tile"] {
+                for key in
+                    ["colour", "histogram", "knots", "abscissa", "estimator", "border", "tile", "extrapolate_bands"]
+                {
                     if let Some(span) = props.span(key) {
                         return Err(Diagnostic::error(format!(
                             "`{key}` is an analysis option: a parameter file is already fitted"

@@ -53,7 +53,17 @@ pub struct FitOptions {
     /// Side of the 2-D noise tile (lattice cells).
     pub tile: usize,
     pub seed: u64,
+    /// Bands finer than the sample's pixels added by extrapolating the top bands' weights
+    /// (0 to [`MAX_EXTRAPOLATED`]): detail for magnified renders, where the paper's bands stop.
+    pub extrapolate: usize,
 }
+
+/// The most bands `extrapolate` adds: each halves the finest wavelength, so four carry detail to
+/// 16× the sample's resolution.
+pub const MAX_EXTRAPOLATED: usize = 4;
+
+/// How many of the top bands the extrapolation line is fitted to.
+const EXTRAPOLATION_FIT: usize = 4;
 
 impl Default for FitOptions {
     fn default() -> Self {
@@ -66,6 +76,7 @@ impl Default for FitOptions {
             border: Border::None,
             tile: 256,
             seed: 0,
+            extrapolate: 0,
         }
     }
 }
@@ -116,7 +127,7 @@ impl Procedural {
             .sum::<usize>()
     }
 
-    /// The bands the weights stand for: `2..=log2(sample_size)`.
+    /// The bands the weights stand for: `2..=log2(sample_size)`, then any extrapolated ones.
     pub fn bands(&self) -> Vec<u32> {
         (2..2 + self.channels[0].weights.len() as u32).collect()
     }
@@ -199,10 +210,11 @@ pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
                 (values.clone(), None)
             };
             let p = spectrum::band_powers_with(&gauss, n, opts.border)?;
-            let weights = match &leakage {
+            let mut weights = match &leakage {
                 None => spectrum::weights_paper(&p, super::SIGMA_N2),
                 Some(k) => spectrum::weights_nnls(&p, k)?,
             };
+            extrapolate(&mut weights, opts.extrapolate.min(MAX_EXTRAPOLATED));
             Ok((p, Channel { weights, curve }))
         })
         .collect::<Result<Vec<_>, _>>()?;
@@ -221,6 +233,34 @@ pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
         channels,
     };
     Ok(Fitted { params, powers, anisotropy, cropped_from })
+}
+
+/// Appends `k` bands to `weights` on the straight line that log₂ w_b follows against b over the
+/// top [`EXTRAPOLATION_FIT`] bands (least squares; bands of weight 0 carry no log and are left
+/// out). With fewer than two such bands there is no line, and the added bands are 0. The added
+/// weights are capped at the parameter file's bound (10⁶), so a rising spectrum stays finite.
+pub fn extrapolate(weights: &mut Vec<f64>, k: usize) {
+    if k == 0 {
+        return;
+    }
+    let top = weights.len().saturating_sub(EXTRAPOLATION_FIT);
+    let points: Vec<(f64, f64)> = weights[top..]
+        .iter()
+        .enumerate()
+        .filter(|(_, &w)| w > 0.0)
+        .map(|(i, &w)| ((top + i) as f64, w.log2()))
+        .collect();
+    let last = weights.len();
+    if points.len() < 2 {
+        weights.extend(std::iter::repeat_n(0.0, k));
+        return;
+    }
+    let n = points.len() as f64;
+    let (mx, my) = (points.iter().map(|p| p.0).sum::<f64>() / n, points.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let slope = sxy / sxx;
+    weights.extend((0..k).map(|j| (my + slope * ((last + j) as f64 - mx)).exp2().min(1e6)));
 }
 
 /// How many random band renders the leakage matrix averages.
@@ -359,9 +399,10 @@ impl Procedural {
         }
         let mut channels = Vec::with_capacity(3);
         for (i, c) in file.channel.into_iter().enumerate() {
-            if c.weights.len() != bands || !finite(&c.weights) || c.weights.iter().any(|w| !(0.0..=1e6).contains(w)) {
+            let count_ok = (bands..=bands + MAX_EXTRAPOLATED).contains(&c.weights.len());
+            if !count_ok || !finite(&c.weights) || c.weights.iter().any(|w| !(0.0..=1e6).contains(w)) {
                 return bad(format!(
-                    "channel {i}: {bands} weights (bands 2 to {}) between 0 and 1e6, not {:?}",
+                    "channel {i}: {bands} weights (bands 2 to {}, and up to {MAX_EXTRAPOLATED} extrapolated bands after them) between 0 and 1e6, not {:?}",
                     bands + 1,
                     c.weights
                 ));
@@ -387,6 +428,9 @@ impl Procedural {
                 }
             };
             channels.push(Channel { weights: c.weights, curve });
+        }
+        if channels.iter().any(|c: &Channel| c.weights.len() != channels[0].weights.len()) {
+            return bad("the three channels must weight the same bands".into());
         }
         let channels: [Channel; 3] = channels.try_into().map_err(|_| NoiseError::File("three channels".into()))?;
         Ok(Procedural {
@@ -458,11 +502,8 @@ impl Procedural {
             channels.push(Channel { weights, curve });
         }
         let channels: [Channel; 3] = channels.try_into().map_err(|_| NoiseError::Morph("three channels".into()))?;
-        let sample_size = if t == 1.0 || other.channels[0].weights.len() > self.channels[0].weights.len() {
-            other.sample_size
-        } else {
-            self.sample_size
-        };
+        let sample_size =
+            if t == 1.0 || other.sample_size > self.sample_size { other.sample_size } else { self.sample_size };
         Ok(Procedural { mean, u, channels, sample_size, ..self.clone() })
     }
 }

@@ -585,3 +585,78 @@ fn the_curve_table_stays_within_a_sixteen_bit_step_of_the_exact_map() {
         }
     }
 }
+
+#[test]
+fn extrapolated_bands_continue_the_top_bands_line() {
+    // Item 6: log₂ w_b on a line over the top bands continues on it; no line (fewer than two
+    // weighted bands) adds zeros; a rising line is capped at the file's bound.
+    let mut w: Vec<f64> = (2..8).map(|b| (-0.5 * b as f64).exp2()).collect();
+    super::params::extrapolate(&mut w, 2);
+    assert_eq!(w.len(), 8);
+    for (k, &v) in w.iter().enumerate().skip(6) {
+        let want = (-0.5 * (k + 2) as f64).exp2();
+        assert!((v / want - 1.0).abs() < 1e-12, "band {}: {v} against {want}", k + 2);
+    }
+    let mut lone = vec![0.0, 0.0, 0.0, 0.5];
+    super::params::extrapolate(&mut lone, 3);
+    assert_eq!(lone, [0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0]);
+    let mut rising: Vec<f64> = (0..6).map(|b| 1e5 * (4.0f64).powi(b)).collect();
+    super::params::extrapolate(&mut rising, 1);
+    assert_eq!(rising[6], 1e6);
+}
+
+#[test]
+fn extrapolated_bands_add_detail_to_a_magnified_render() {
+    // A 128² sample of a spectrum falling half an octave of weight per band, fitted with and
+    // without two extrapolated bands, rendered 4× magnified: the added bands (finer than the
+    // sample's pixels) put back power in the render's finest octaves, which the fit alone leaves
+    // blurred; at the sample's own resolution they are clamped away and change nothing visible.
+    let n = 128;
+    let truth = known(&(2..10).map(|b| (-0.4 * b as f64).exp2()).collect::<Vec<_>>(), 4 * n, 0.5);
+    let sample = render_at(&truth, 5, n, 1.0 / n as f64, &[]);
+    let plain = fit(&sample, &grey_opts()).unwrap().params;
+    let extra = fit(&sample, &FitOptions { extrapolate: 2, ..grey_opts() }).unwrap().params;
+    assert_eq!(extra.channels[0].weights.len(), plain.channels[0].weights.len() + 2);
+    assert_eq!(extra.channels[0].weights[..6], plain.channels[0].weights[..]);
+    // Read back from its file, with the bands after the fitted ones.
+    assert_eq!(Procedural::from_toml(&extra.to_toml()).unwrap(), extra);
+    let zoom = 4.0;
+    let pixel = 1.0 / (n as f64 * zoom);
+    let (a, b) = (render_at(&plain, 9, 256, pixel, &[]), render_at(&extra, 9, 256, pixel, &[]));
+    let (pa, pb) = (powers(&a, 0), powers(&b, 0));
+    let pt = powers(&render_at(&truth, 9, 256, pixel, &[]), 0);
+    // Render bands 7 and 8 (256² at 4 pixels per sample pixel) are sample bands 9 and 10: only the
+    // extrapolated weights reach them.
+    for band in [7, 8] {
+        let (x, y) = (pa.powers[band - 2], pb.powers[band - 2]);
+        let t = pt.powers[band - 2];
+        eprintln!(
+            "magnified 4×, render band {band}: {:.1} dB more with extrapolation; {:.1} dB from the truth (without: {:.1} dB)",
+            db(y, x),
+            db(y, t),
+            db(x, t)
+        );
+        assert!(db(y, x) > 3.0, "band {band}: {x} without, {y} with");
+        assert!(db(y, t).abs() < 3.0, "band {band}: {y} with extrapolation, {t} in the truth");
+    }
+    let at_sample = |p: &Procedural| render_at(p, 9, n, 1.0 / n as f64, &[]);
+    let (c, d) = (at_sample(&plain), at_sample(&extra));
+    let off = c.data.iter().zip(&d.data).map(|(x, y)| (x - y).abs()).fold(0f32, f32::max);
+    assert!(off < 1e-3, "at the sample's resolution the extra bands change a pixel by {off}");
+}
+
+#[test]
+fn a_file_with_too_many_bands_is_refused() {
+    let mut p = known(&[0.5; 6], 128, 0.5);
+    for c in &mut p.channels {
+        c.weights.extend([0.1; super::params::MAX_EXTRAPOLATED]);
+    }
+    assert!(Procedural::from_toml(&p.to_toml()).is_ok());
+    p.channels[1].weights.push(0.1);
+    assert!(Procedural::from_toml(&p.to_toml()).is_err(), "channels of different band counts");
+    for c in &mut p.channels[..] {
+        c.weights.truncate(6 + super::params::MAX_EXTRAPOLATED);
+        c.weights.push(0.1);
+    }
+    assert!(Procedural::from_toml(&p.to_toml()).unwrap_err().to_string().contains("extrapolated"));
+}
