@@ -62,7 +62,7 @@ pub struct FitOptions {
 /// 16× the sample's resolution.
 pub const MAX_EXTRAPOLATED: usize = 4;
 
-/// How many of the top bands the extrapolation line is fitted to.
+/// How many of the top bands the extrapolation line is fitted to (four: [`extrapolate`]).
 const EXTRAPOLATION_FIT: usize = 4;
 
 impl Default for FitOptions {
@@ -236,7 +236,7 @@ pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
 }
 
 /// Appends `k` bands to `weights` on the straight line that log₂ w_b follows against b over the
-/// top [`EXTRAPOLATION_FIT`] bands (least squares; bands of weight 0 carry no log and are left
+/// top four bands (least squares; bands of weight 0 carry no log and are left
 /// out). With fewer than two such bands there is no line, and the added bands are 0. The added
 /// weights are capped at the parameter file's bound (10⁶), so a rising spectrum stays finite.
 pub fn extrapolate(weights: &mut Vec<f64>, k: usize) {
