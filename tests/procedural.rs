@@ -78,6 +78,8 @@ fn bad_procedural_input_is_a_diagnostic_at_its_span() {
     p.refuses("no precision left", "origin = [1e30, 0]");
     let p = project(&(base.clone() + "\nlayer grown {\n  quilt = gravel\n  zoom = 2\n}\n"));
     p.refuses("applies only to layers evaluated from a procedural texture", "zoom = 2");
+    let p = project(&base.replace("  band_gain = [1, 1, 2.5", "  correct_slice = true\n  band_gain = [1, 1, 2.5"));
+    p.refuses("applies only to the solid texture", "correct_slice = true");
     // A sample too small to have three bands.
     let p = project(&base);
     let tiny = tessera::raster::Image::filled(12, 12, 3, 0.4);
@@ -100,6 +102,27 @@ fn bad_procedural_input_is_a_diagnostic_at_its_span() {
     let quantile = base.replacen("  histogram = on\n", "  histogram = on\n  abscissa = quantile\n", 1);
     let p = project(&quantile);
     p.refuses("abscissa", "morph = grass_fit");
+}
+
+#[test]
+fn a_corrected_slice_is_another_picture_and_takes_gains_and_morphs() {
+    // The scene's slice refits its solid weights; without the correction it is the plain slice.
+    let p = project(&scene());
+    p.tessera(&["build", "scene.tess"]).ok();
+    let corrected = p.read("out/scene/slice.png");
+    p.write("scene.tess", &scene().replace("  correct_slice = true\n", ""));
+    p.tessera(&["build", "scene.tess"]).ok();
+    assert_ne!(p.read("out/scene/slice.png"), corrected);
+    // A corrected slice with band gains, morphed into grass by the ramp.
+    let morphing =
+        "layer morphing {\n  procedural = gravel_fit\n  morph = grass_fit\n  morph_by = ramp\n  on = strip\n}";
+    let solid = "layer morphing {\n  procedural = gravel_fit\n  morph = grass_fit\n  morph_by = ramp\n  on = strip\n  \
+                 solid = true\n  correct_slice = true\n  band_gain = [1, 1, 2]\n}";
+    assert!(scene().contains(morphing));
+    p.write("scene.tess", &scene().replace(morphing, solid));
+    p.tessera(&["build", "scene.tess"]).ok();
+    let morph = image::open(p.path("out/scene/morph.png")).unwrap().to_rgb8();
+    assert_eq!(morph.dimensions(), (512, 128));
 }
 
 #[test]
@@ -161,6 +184,7 @@ fn hostile_numbers_in_noise_and_tiling_properties_build_or_are_diagnostics() {
             ("origin", format!("  origin = [0, {v}]\n")),
             ("band_gain", format!("  band_gain = [1, {v}]\n")),
             ("slice", format!("  solid = true\n  slice = {v}\n")),
+            ("slice", format!("  solid = true\n  correct_slice = true\n  slice = {v}\n")),
         ] {
             let (p, l) = noise(line);
             cases.push((p, l, prop));

@@ -77,7 +77,9 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
                 .with_code("tessera::layer")
                 .with_label(span, "remove this"));
         }
-        if let Some(span) = ["band_gain", "solid", "slice", "morph", "morph_by"].iter().find_map(|k| props.span(k)) {
+        if let Some(span) =
+            ["band_gain", "solid", "slice", "correct_slice", "morph", "morph_by"].iter().find_map(|k| props.span(k))
+        {
             return Err(Diagnostic::error("this property applies only to layers evaluated from a procedural texture")
                 .with_code("tessera::layer")
                 .with_label(span, "remove this"));
@@ -93,7 +95,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
         return Err(Diagnostic::error("this property applies only to layers evaluated from a procedural texture")
             .with_code("tessera::layer")
             .with_label(span, "remove this")
-            .with_help("`zoom`, `origin`, `band_gain`, `solid`, `slice`, `morph` and `morph_by` shape a layer made with `procedural = TEXTURE`"));
+            .with_help("`zoom`, `origin`, `band_gain`, `solid`, `slice`, `correct_slice`, `morph` and `morph_by` shape a layer made with `procedural = TEXTURE`"));
     }
     match (props.reference("quilt"), props.get("blend")) {
         (Some(sample), None) => plan_quilt(p, d, sample),

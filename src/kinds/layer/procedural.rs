@@ -14,9 +14,11 @@ use crate::lang::{Decl, Diagnostic};
 use crate::raster::Image;
 use crate::synth::noise::eval::{self, morph_looks, morph_step, Domain, Look, Noise};
 use crate::synth::noise::params::Procedural;
+use crate::synth::noise::slice::SliceCorrection;
+use crate::synth::noise::NoiseError;
 
 /// The properties that only a procedural layer reads.
-pub const PROPS: &[&str] = &["zoom", "origin", "band_gain", "solid", "slice", "morph", "morph_by"];
+pub const PROPS: &[&str] = &["zoom", "origin", "band_gain", "solid", "slice", "correct_slice", "morph", "morph_by"];
 
 #[derive(serde::Serialize)]
 struct Evaluating {
@@ -29,6 +31,7 @@ struct Evaluating {
     gains: Vec<f64>,
     solid: bool,
     slice: f64,
+    correct_slice: bool,
 }
 
 /// Working memory per pixel (the RGB result in f64 rows, then the image).
@@ -68,8 +71,16 @@ pub fn plan(p: &mut Planner, d: &Decl, texture: &str) -> Result<Handle<Image>, D
         gains: props.opt_numbers("band_gain").map(<[f64]>::to_vec).unwrap_or_default(),
         solid: props.bool("solid"),
         slice: props.num("slice"),
+        correct_slice: props.bool("correct_slice"),
     };
-    let stage = FnStage::keyed("layer.procedural", 3, evaluating, run);
+    for key in ["slice", "correct_slice"] {
+        if let (Some(span), false) = (props.span(key), evaluating.solid) {
+            return Err(Diagnostic::error(format!("`{key}` applies only to the solid texture"))
+                .with_code("tessera::layer")
+                .with_label(span, "this needs `solid = true`"));
+        }
+    }
+    let stage = FnStage::keyed("layer.procedural", 4, evaluating, run);
     Ok(p.add(format!("layer {}", d.name), stage, inputs, vec![]))
 }
 
@@ -110,14 +121,29 @@ fn run(cx: &RunCx, e: &Evaluating) -> Result<Image, StageError> {
     } else {
         Domain::Plane { origin: e.origin, pixel }
     };
+    // With `correct_slice`, the gains go into the corrected weights (a morph's looks are
+    // linear in the weights, so correcting both ends and interpolating keeps the gains).
+    let (params, other, gains) = if e.solid && e.correct_slice {
+        let at = |e: NoiseError| StageError::new(e.to_string()).at_prop("correct_slice");
+        let correction =
+            SliceCorrection::new(&noise, bands, [e.origin[0], e.origin[1], e.slice], e.seed).map_err(at)?;
+        let params = correction.corrected(&params, &e.gains).map_err(at)?;
+        let other = match other {
+            Some((o, map)) => Some((std::sync::Arc::new(correction.corrected(&o, &e.gains).map_err(at)?), map)),
+            None => None,
+        };
+        (std::sync::Arc::new(params), other, Vec::new())
+    } else {
+        (params, other, e.gains.clone())
+    };
     let out = match other {
         None => {
-            let look = Look::new(&params, &e.gains);
+            let look = Look::new(&params, &gains);
             eval::render(&noise, w, h, domain, |_, _| &look)
         }
         Some((other, map)) => {
             let looks =
-                morph_looks(&params, &other, &e.gains).map_err(|e| StageError::new(e.to_string()).at_prop("morph"))?;
+                morph_looks(&params, &other, &gains).map_err(|e| StageError::new(e.to_string()).at_prop("morph"))?;
             // The map is read at the same relative position, whatever its size.
             let (mw, mh) = (map.width.max(1), map.height.max(1));
             let at = |i: usize, j: usize| {

@@ -57,6 +57,21 @@ impl Noise {
     pub fn is_solid(&self) -> bool {
         self.solid.is_some()
     }
+
+    /// The 2-D tile and the solid one.
+    pub fn tiles(&self) -> (&Tile, Option<&Tile>) {
+        (&self.tile, self.solid.as_ref())
+    }
+
+    /// Channel `c`'s offsets of band `k + 2`, in lattice units (None past its bands).
+    pub fn offset(&self, c: usize, k: usize) -> Option<[f64; 3]> {
+        self.offsets.get(c)?.get(k).copied()
+    }
+
+    /// Band `k + 2`'s lattice frequency, 2^(k+2) cells a sample width.
+    pub fn band_scale(k: usize) -> f64 {
+        band_scale(k)
+    }
 }
 
 /// What a parameter set (with band gains applied) needs at each point.

@@ -7,13 +7,15 @@
 //! - `spectrum`: band powers (eq. 10), the weight estimators (eq. 9, NNLS), the isotropy check.
 //! - `marginal`: Gaussianisation, Φ, the monotone inverse-CDF curve.
 //! - `colour`: PCA colour with its sign convention, and its morph.
-//! - `params`: the analysis and the parameter file; `eval`: evaluation.
+//! - `params`: the analysis and the parameter file; `eval`: evaluation; `slice`: the solid
+//!   weights that give a planar slice the 2-D texture's band powers.
 //! - `tiling`: histogram-preserving tiling and blending (Heitz & Neyret 2018; hex tiles).
 
 pub mod colour;
 pub mod eval;
 pub mod marginal;
 pub mod params;
+pub mod slice;
 pub mod spectrum;
 pub mod tile;
 pub mod tiling;

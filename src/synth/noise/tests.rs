@@ -660,3 +660,37 @@ fn a_file_with_too_many_bands_is_refused() {
     }
     assert!(Procedural::from_toml(&p.to_toml()).unwrap_err().to_string().contains("extrapolated"));
 }
+
+#[test]
+fn a_corrected_slice_keeps_the_planes_band_powers() {
+    // Item 21 with `correct_slice`: slice band powers (b ≥ 5) within 1 dB of the 2-D output, on
+    // flat, rising, steeply rising and falling spectra; without the correction the rising ones
+    // are more than 1 dB off (a slice's finest band is weak, and strong bands leak down).
+    let n = 256;
+    let pixel = 1.0 / n as f64;
+    let origin = [0.0, 0.0, 0.37];
+    for (weights, off_without) in [
+        (vec![0.5, 0.6, 0.7, 0.8, 0.8, 0.8, 0.8], true),
+        (vec![0.2, 0.3, 0.45, 0.7, 1.0, 1.5, 2.2], true),
+        (vec![0.1, 0.2, 0.4, 0.8, 1.6, 3.2, 6.4], true),
+        (vec![1.6, 1.2, 0.9, 0.6, 0.35, 0.2, 0.1], false),
+    ] {
+        let p = known(&weights, n, 0.5);
+        let noise = Noise::new(8, 256, 7, p.colour, true).unwrap();
+        let look = Look::new(&p, &[]);
+        let flat =
+            powers(&eval::render(&noise, n, n, Domain::Plane { origin: [0.0; 2], pixel }, |_, _| &look).unwrap(), 0);
+        let slice_of = |p: &Procedural| {
+            let look = Look::new(p, &[]);
+            let domain = Domain::Slice { origin, u: [1.0, 0.0, 0.0], v: [0.0, 1.0, 0.0], pixel };
+            powers(&eval::render(&noise, n, n, domain, |_, _| &look).unwrap(), 0)
+        };
+        let correction = super::slice::SliceCorrection::new(&noise, 7, origin, 3).unwrap();
+        let corrected = correction.corrected(&p, &[]).unwrap();
+        let off = |s: &BandPowers| (3..7).map(|k| db(s.powers[k], flat.powers[k]).abs()).fold(0.0, f64::max);
+        let (without, with) = (off(&slice_of(&p)), off(&slice_of(&corrected)));
+        eprintln!("weights {weights:?}: slice off by up to {without:.2} dB, {with:.2} dB corrected");
+        assert!(with <= 1.0, "corrected slice {with:.2} dB off");
+        assert_eq!(without > 1.0, off_without, "{without:.2} dB without the correction");
+    }
+}
