@@ -1054,22 +1054,8 @@ mod tests {
 
     /// Two-sample Kolmogorov–Smirnov distance, exact with ties.
     fn ks(a: &[f32], b: &[f32]) -> f64 {
-        let mut a = a.to_vec();
-        let mut b = b.to_vec();
-        a.sort_by(f32::total_cmp);
-        b.sort_by(f32::total_cmp);
-        let (mut i, mut j, mut d) = (0, 0, 0f64);
-        while i < a.len() && j < b.len() {
-            let v = a[i].min(b[j]);
-            while i < a.len() && a[i] <= v {
-                i += 1;
-            }
-            while j < b.len() && b[j] <= v {
-                j += 1;
-            }
-            d = d.max((i as f64 / a.len() as f64 - j as f64 / b.len() as f64).abs());
-        }
-        d
+        let wide = |v: &[f32]| v.iter().map(|&x| f64::from(x)).collect::<Vec<f64>>();
+        crate::synth::noise::marginal::ks_two_sample(&wide(a), &wide(b))
     }
 
     fn covariance(img: &Image) -> Vec<f64> {
