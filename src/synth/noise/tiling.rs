@@ -312,6 +312,7 @@ impl Prepared {
     /// T⁻¹ of every channel at its Gaussian value in `g` (lanes past `channels` are 0), linear
     /// between table entries and clamped to the exemplar's extremes outside the table; NaN stays
     /// NaN.
+    #[inline(always)]
     fn inverse_transforms(&self, g: Vec4) -> [f32; 4] {
         let t = ((g - self.lut_lo) * self.lut_step).clamp(Vec4::ZERO, Vec4::splat((LUT_LEN - 1) as f32));
         let (t, g) = (t.to_array(), g.to_array());
@@ -329,6 +330,7 @@ impl Prepared {
 
     /// The output colour of blended Gaussian values `g`: T⁻¹ per channel, then back from the
     /// principal axes.
+    #[inline(always)]
     fn colour(&self, g: Vec4) -> [f32; 4] {
         let c = self.channels;
         let p = self.inverse_transforms(g);
@@ -357,6 +359,7 @@ impl Prepared {
         TexelRows { first: y0 * w, second: y1 * w, weight: fy as f32 }
     }
 
+    #[inline(always)]
     fn bilinear_at(&self, x: f64, rows: TexelRows) -> Vec4 {
         let w = self.width;
         let (x0, fx) = self.wrap(x, w);
@@ -664,7 +667,32 @@ impl<'a> Row<'a> {
         }
     }
 
+    /// Moves to the cell column `bx`: its four vertices (two of them kept when the row steps
+    /// into the next column) and, without rotation, their texel rows. Once per column, so out of
+    /// line.
+    #[inline(never)]
+    fn enter(&mut self, bx: i64) {
+        let (setup, prep) = (self.setup, self.prep);
+        let (by, by1, bx1) = (self.by, self.by.wrapping_add(1), bx.wrapping_add(1));
+        self.quad = if self.bx == Some(bx.wrapping_sub(1)) {
+            [self.quad[2], self.quad[3], setup.vertex(prep, bx1, by), setup.vertex(prep, bx1, by1)]
+        } else {
+            [
+                setup.vertex(prep, bx, by),
+                setup.vertex(prep, bx, by1),
+                setup.vertex(prep, bx1, by),
+                setup.vertex(prep, bx1, by1),
+            ]
+        };
+        self.bx = Some(bx);
+        if setup.rotation == 0.0 {
+            let texel = prep.width as f64;
+            self.rows = self.quad.map(|q| prep.texel_rows(self.v * texel - 0.5 + q.offset[1]));
+        }
+    }
+
     /// The output colour at (u, v), first `channels` lanes.
+    #[inline(always)]
     fn point(&mut self, u: f64) -> [f32; 4] {
         let g = self.gaussian(u, true);
         self.prep.colour(g)
@@ -673,6 +701,7 @@ impl<'a> Row<'a> {
     /// The blended Gaussian values at (u, v), one lane per channel. `variance_preserving` false
     /// gives the plain linear blend Σ w_i G_i, kept for the tests that show what the normalisation
     /// buys.
+    #[inline(always)]
     fn gaussian(&mut self, u: f64, variance_preserving: bool) -> Vec4 {
         let (setup, prep) = (self.setup, self.prep);
         // HN's `TriangleGrid` in the skewed lattice: the point's cell and its triangle.
@@ -681,22 +710,7 @@ impl<'a> Row<'a> {
         let f0 = s0 - base;
         let bx = base as i64;
         if self.bx != Some(bx) {
-            let (by, by1, bx1) = (self.by, self.by.wrapping_add(1), bx.wrapping_add(1));
-            self.quad = if self.bx == Some(bx.wrapping_sub(1)) {
-                [self.quad[2], self.quad[3], setup.vertex(prep, bx1, by), setup.vertex(prep, bx1, by1)]
-            } else {
-                [
-                    setup.vertex(prep, bx, by),
-                    setup.vertex(prep, bx, by1),
-                    setup.vertex(prep, bx1, by),
-                    setup.vertex(prep, bx1, by1),
-                ]
-            };
-            self.bx = Some(bx);
-            if setup.rotation == 0.0 {
-                let texel = prep.width as f64;
-                self.rows = self.quad.map(|q| prep.texel_rows(self.v * texel - 0.5 + q.offset[1]));
-            }
+            self.enter(bx);
         }
         let f1 = self.f1;
         let z = 1.0 - f0 - f1;
