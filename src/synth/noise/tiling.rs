@@ -177,6 +177,9 @@ pub struct Prepared {
     texels: Vec<Vec4>,
     /// Per channel, the table's first Gaussian value and its entries per unit of Gaussian value
     /// (0 for a flat channel). Derived from `lut_range`.
+    /// `lut` as four tables, zeros past `channels`: every lane looked up with no loop bound.
+    #[serde(skip)]
+    tables: Box<[[f32; LUT_LEN]; 4]>,
     #[serde(skip)]
     lut_lo: Vec4,
     #[serde(skip)]
@@ -266,6 +269,10 @@ impl Prepared {
                 Vec4::from_array(t)
             })
             .collect();
+        let mut tables = Box::new([[0f32; LUT_LEN]; 4]);
+        for (table, lut) in tables.iter_mut().zip(d.lut.chunks_exact(LUT_LEN)) {
+            table.copy_from_slice(lut);
+        }
         let (mut lut_lo, mut lut_step) = ([0f32; 4], [0f32; 4]);
         for (k, &[lo, hi]) in d.lut_range.iter().enumerate() {
             lut_lo[k] = lo as f32;
@@ -294,6 +301,7 @@ impl Prepared {
             lut_range: d.lut_range,
             lut: d.lut,
             texels,
+            tables,
             lut_lo: Vec4::from_array(lut_lo),
             lut_step: Vec4::from_array(lut_step),
             mix,
@@ -314,16 +322,19 @@ impl Prepared {
     /// NaN.
     #[inline(always)]
     fn inverse_transforms(&self, g: Vec4) -> [f32; 4] {
+        // The vector clamp would turn NaN into a bound. All lanes come from the same weights, so
+        // one NaN lane means a NaN point.
+        if g.is_nan_mask().any() {
+            return [f32::NAN; 4];
+        }
         let t = ((g - self.lut_lo) * self.lut_step).clamp(Vec4::ZERO, Vec4::splat((LUT_LEN - 1) as f32));
-        let (t, g) = (t.to_array(), g.to_array());
+        let t = t.to_array();
         let mut p = [0f32; 4];
-        for (k, pk) in p.iter_mut().enumerate().take(self.channels) {
-            let table: &[f32; LUT_LEN] =
-                self.lut[k * LUT_LEN..(k + 1) * LUT_LEN].try_into().expect("one table a channel");
-            let i = (t[k] as usize).min(LUT_LEN - 2);
+        for ((pk, table), &tk) in p.iter_mut().zip(self.tables.iter()).zip(&t) {
+            // t is in [0, LUT_LEN − 1]: the i32 cast is exact and cheaper than a saturating usize one.
+            let i = (tk as i32 as usize).min(LUT_LEN - 2);
             let (a, b) = (table[i], table[i + 1]);
-            // The vector clamp turns NaN into a bound.
-            *pk = if g[k].is_nan() { f32::NAN } else { a + (b - a) * (t[k] - i as f32) };
+            *pk = a + (b - a) * (tk - i as f32);
         }
         p
     }
@@ -366,6 +377,11 @@ impl Prepared {
         let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
         let t = &self.texels;
         let fx = fx as f32;
+        // On texel centres (one output pixel per texel, whole-texel offsets) the lookup is one
+        // texel: the same value as the blend below, whose other terms are then weighted 0.
+        if fx == 0.0 && rows.weight == 0.0 {
+            return t[rows.first + x0];
+        }
         let lerp = |a: Vec4, b: Vec4, f: f32| a + (b - a) * f;
         let top = lerp(t[rows.first + x0], t[rows.first + x1], fx);
         let bottom = lerp(t[rows.second + x0], t[rows.second + x1], fx);
