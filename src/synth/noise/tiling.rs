@@ -27,7 +27,7 @@
 
 use crate::raster::Image;
 use crate::synth::rng::derive_seed;
-use glam::Vec4;
+use glam::{IVec4, Vec4};
 use rayon::prelude::*;
 
 /// Entries of each channel's T⁻¹ quantile table. The table is indexed by the Gaussian value over the
@@ -175,11 +175,13 @@ pub struct Prepared {
     /// layout evaluation reads, every channel of a texel in one load. Derived from `gauss`.
     #[serde(skip)]
     texels: Vec<Vec4>,
+    /// `lut` as four tables, zeros past `channels`: every lane looked up with no loop bound. One
+    /// entry of padding each, never weighted, so that a masked index and the one after it are
+    /// both in bounds without a check.
+    #[serde(skip)]
+    tables: Box<[[f32; LUT_LEN + 1]; 4]>,
     /// Per channel, the table's first Gaussian value and its entries per unit of Gaussian value
     /// (0 for a flat channel). Derived from `lut_range`.
-    /// `lut` as four tables, zeros past `channels`: every lane looked up with no loop bound.
-    #[serde(skip)]
-    tables: Box<[[f32; LUT_LEN]; 4]>,
     #[serde(skip)]
     lut_lo: Vec4,
     #[serde(skip)]
@@ -269,9 +271,9 @@ impl Prepared {
                 Vec4::from_array(t)
             })
             .collect();
-        let mut tables = Box::new([[0f32; LUT_LEN]; 4]);
+        let mut tables = Box::new([[0f32; LUT_LEN + 1]; 4]);
         for (table, lut) in tables.iter_mut().zip(d.lut.chunks_exact(LUT_LEN)) {
-            table.copy_from_slice(lut);
+            table[..LUT_LEN].copy_from_slice(lut);
         }
         let (mut lut_lo, mut lut_step) = ([0f32; 4], [0f32; 4]);
         for (k, &[lo, hi]) in d.lut_range.iter().enumerate() {
@@ -328,15 +330,16 @@ impl Prepared {
             return [f32::NAN; 4];
         }
         let t = ((g - self.lut_lo) * self.lut_step).clamp(Vec4::ZERO, Vec4::splat((LUT_LEN - 1) as f32));
-        let t = t.to_array();
-        let mut p = [0f32; 4];
-        for ((pk, table), &tk) in p.iter_mut().zip(self.tables.iter()).zip(&t) {
-            // t is in [0, LUT_LEN − 1]: the i32 cast is exact and cheaper than a saturating usize one.
-            let i = (tk as i32 as usize).min(LUT_LEN - 2);
-            let (a, b) = (table[i], table[i + 1]);
-            *pk = a + (b - a) * (tk - i as f32);
-        }
-        p
+        // t is in [0, LUT_LEN − 1], so the truncating conversion is exact, all lanes at once; the
+        // mask changes no index and proves the reads in bounds.
+        let i = t.as_ivec4().min(IVec4::splat(LUT_LEN as i32 - 2));
+        let at = |k: usize, i: i32| {
+            let i = i as usize & (LUT_LEN - 1);
+            (self.tables[k][i], self.tables[k][i + 1])
+        };
+        let [(a0, b0), (a1, b1), (a2, b2), (a3, b3)] = [at(0, i.x), at(1, i.y), at(2, i.z), at(3, i.w)];
+        let (a, b) = (Vec4::new(a0, a1, a2, a3), Vec4::new(b0, b1, b2, b3));
+        (a + (b - a) * (t - i.as_vec4())).to_array()
     }
 
     /// The output colour of blended Gaussian values `g`: T⁻¹ per channel, then back from the
@@ -573,10 +576,32 @@ pub fn render(
         let rows = planes.first().map_or(0, |p| p.len() / width);
         for r in 0..rows {
             let mut row = Row::new(prep, &setup, v0 + ((b * band_rows + r) as f64 + 0.5) * dv);
-            for x in 0..width {
-                let px = row.point(u0 + (x as f64 + 0.5) * du);
-                for (plane, &value) in planes.iter_mut().zip(&px[..c]) {
-                    plane[r * width + x] = value;
+            let span = r * width..(r + 1) * width;
+            let point = |x: usize| row.point(u0 + (x as f64 + 0.5) * du);
+            // The common channel counts with their row slices fixed, so that a pixel is one store
+            // per channel with no bounds check.
+            match &mut planes[..] {
+                [p0, p1, p2] => {
+                    let (p0, p1, p2) = (&mut p0[span.clone()], &mut p1[span.clone()], &mut p2[span.clone()]);
+                    let mut point = point;
+                    for (x, ((o0, o1), o2)) in p0.iter_mut().zip(p1.iter_mut()).zip(p2.iter_mut()).enumerate() {
+                        [*o0, *o1, *o2, _] = point(x);
+                    }
+                }
+                [p0] => {
+                    let mut point = point;
+                    for (x, o0) in p0[span].iter_mut().enumerate() {
+                        *o0 = point(x)[0];
+                    }
+                }
+                planes => {
+                    let mut point = point;
+                    for x in 0..width {
+                        let px = point(x);
+                        for (plane, &value) in planes.iter_mut().zip(&px[..c]) {
+                            plane[span.start + x] = value;
+                        }
+                    }
                 }
             }
         }
@@ -783,6 +808,11 @@ fn sharpen(w: [f64; 3], exponent: f64) -> [f64; 3] {
 fn power(x: f64, e: f64) -> f64 {
     if e == 1.0 {
         return x;
+    }
+    if e == HEX_EXPONENT {
+        // The squarings below for 7 = 0b111, in their order, with no loop.
+        let x2 = x * x;
+        return (x * x2) * (x2 * x2);
     }
     if e.fract() == 0.0 && (2.0..=64.0).contains(&e) {
         let (mut n, mut base, mut acc) = (e as u32, x, 1.0);
