@@ -27,7 +27,7 @@
 
 use crate::raster::Image;
 use crate::synth::rng::derive_seed;
-use glam::{IVec4, Vec4};
+use glam::Vec4;
 use rayon::prelude::*;
 
 /// Entries of each channel's T⁻¹ quantile table. The table is indexed by the Gaussian value over the
@@ -49,6 +49,10 @@ const GAUSS_STD: f64 = 1.0 / 6.0;
 /// fraction of a texel and of a cell there.
 const COORD_LIMIT: f64 = (1u64 << 40) as f64;
 
+/// 1.5·2⁵²: added to an f64 below [`ROUND_LIMIT`] in magnitude, it leaves the nearest whole
+/// number in the low mantissa bits.
+const ROUND: f64 = 6_755_399_441_055_744.0;
+const ROUND_LIMIT: f64 = (1u64 << 51) as f64;
 const SQRT3: f64 = 1.732_050_807_568_877_2;
 
 /// The lattice whose vertices own the random offsets.
@@ -330,16 +334,18 @@ impl Prepared {
             return [f32::NAN; 4];
         }
         let t = ((g - self.lut_lo) * self.lut_step).clamp(Vec4::ZERO, Vec4::splat((LUT_LEN - 1) as f32));
-        // t is in [0, LUT_LEN − 1], so the truncating conversion is exact, all lanes at once; the
-        // mask changes no index and proves the reads in bounds.
-        let i = t.as_ivec4().min(IVec4::splat(LUT_LEN as i32 - 2));
-        let at = |k: usize, i: i32| {
-            let i = i as usize & (LUT_LEN - 1);
-            (self.tables[k][i], self.tables[k][i + 1])
-        };
-        let [(a0, b0), (a1, b1), (a2, b2), (a3, b3)] = [at(0, i.x), at(1, i.y), at(2, i.z), at(3, i.w)];
+        // ⌊t⌋ in float lanes: adding 2²³ rounds t ∈ [0, LUT_LEN − 1] to the nearest whole number,
+        // one less where that rounded up. (`as` to integers converts lane by lane, saturating.)
+        let magic = Vec4::splat(8_388_608.0);
+        let near = (t + magic) - magic;
+        let whole = Vec4::select(near.cmpgt(t), near - Vec4::ONE, near).min(Vec4::splat(LUT_LEN as f32 - 2.0));
+        // whole + 2²³ holds the index in its low mantissa bits; the mask changes no index and
+        // proves the reads in bounds.
+        let i = (whole + magic).to_array().map(|v| v.to_bits() as usize & (LUT_LEN - 1));
+        let at = |k: usize| (self.tables[k][i[k]], self.tables[k][i[k] + 1]);
+        let [(a0, b0), (a1, b1), (a2, b2), (a3, b3)] = [at(0), at(1), at(2), at(3)];
         let (a, b) = (Vec4::new(a0, a1, a2, a3), Vec4::new(b0, b1, b2, b3));
-        (a + (b - a) * (t - i.as_vec4())).to_array()
+        (a + (b - a) * (t - whole)).to_array()
     }
 
     /// The output colour of blended Gaussian values `g`: T⁻¹ per channel, then back from the
@@ -396,6 +402,10 @@ impl Prepared {
     #[inline]
     fn wrap(&self, x: f64, period: usize) -> (usize, f64) {
         if period.is_power_of_two() {
+            // 2⁵¹ is a multiple of the period, so the biased index wraps alike.
+            if let Some((base, biased)) = floor_biased(x) {
+                return (biased as usize & (period - 1), x - base);
+            }
             let base = floor(x);
             ((base as i64 & (period as i64 - 1)) as usize, x - base)
         } else {
@@ -574,30 +584,37 @@ pub fn render(
     }
     slices.into_par_iter().enumerate().for_each(|(b, mut planes)| {
         let rows = planes.first().map_or(0, |p| p.len() / width);
+        // A row's lattice corners first, then the blends of their lookups, then the colours: short
+        // loops whose iterations overlap, where one long loop per pixel waits on each step.
+        let mut gauss = vec![Vec4::ZERO; width];
+        let mut corners = vec![Corner { bx: 0, lower: true, weights: [0.0; 3] }; width];
         for r in 0..rows {
             let mut row = Row::new(prep, &setup, v0 + ((b * band_rows + r) as f64 + 0.5) * dv);
+            let u = |x: usize| u0 + (x as f64 + 0.5) * du;
+            for (x, corner) in corners.iter_mut().enumerate() {
+                *corner = row.corner(u(x));
+            }
+            for (x, (g, &corner)) in gauss.iter_mut().zip(&corners).enumerate() {
+                *g = row.blend(u(x), corner, true);
+            }
             let span = r * width..(r + 1) * width;
-            let point = |x: usize| row.point(u0 + (x as f64 + 0.5) * du);
             // The common channel counts with their row slices fixed, so that a pixel is one store
             // per channel with no bounds check.
             match &mut planes[..] {
                 [p0, p1, p2] => {
                     let (p0, p1, p2) = (&mut p0[span.clone()], &mut p1[span.clone()], &mut p2[span.clone()]);
-                    let mut point = point;
-                    for (x, ((o0, o1), o2)) in p0.iter_mut().zip(p1.iter_mut()).zip(p2.iter_mut()).enumerate() {
-                        [*o0, *o1, *o2, _] = point(x);
+                    for (((o0, o1), o2), &g) in p0.iter_mut().zip(p1.iter_mut()).zip(p2.iter_mut()).zip(&gauss) {
+                        [*o0, *o1, *o2, _] = prep.colour(g);
                     }
                 }
                 [p0] => {
-                    let mut point = point;
-                    for (x, o0) in p0[span].iter_mut().enumerate() {
-                        *o0 = point(x)[0];
+                    for (o0, &g) in p0[span].iter_mut().zip(&gauss) {
+                        *o0 = prep.colour(g)[0];
                     }
                 }
                 planes => {
-                    let mut point = point;
-                    for x in 0..width {
-                        let px = point(x);
+                    for (x, &g) in gauss.iter().enumerate() {
+                        let px = prep.colour(g);
                         for (plane, &value) in planes.iter_mut().zip(&px[..c]) {
                             plane[span.start + x] = value;
                         }
@@ -744,35 +761,54 @@ impl<'a> Row<'a> {
     /// buys.
     #[inline(always)]
     fn gaussian(&mut self, u: f64, variance_preserving: bool) -> Vec4 {
-        let (setup, prep) = (self.setup, self.prep);
+        let corner = self.corner(u);
+        self.blend(u, corner, variance_preserving)
+    }
+
+    /// Where u falls on the lattice: its cell column, its triangle and the blend weights of the
+    /// triangle's vertices. Reads only the row, so a whole row of corners can be found before any
+    /// lookup.
+    #[inline(always)]
+    fn corner(&self, u: f64) -> Corner {
+        let setup = self.setup;
         // HN's `TriangleGrid` in the skewed lattice: the point's cell and its triangle.
         let s0 = u * setup.inv_scale - self.shear;
-        let base = floor(s0);
+        let (base, bx) = match floor_biased(s0) {
+            Some((base, biased)) => (base, biased as i64 - (1 << 51)),
+            None => (floor(s0), floor(s0) as i64),
+        };
         let f0 = s0 - base;
-        let bx = base as i64;
-        if self.bx != Some(bx) {
-            self.enter(bx);
-        }
         let f1 = self.f1;
         let z = 1.0 - f0 - f1;
-        let (vertices, bary) = if z > 0.0 { ([0, 1, 2], [z, f1, f0]) } else { ([3, 2, 1], [-z, 1.0 - f1, 1.0 - f0]) };
+        let (lower, bary) = if z > 0.0 { (true, [z, f1, f0]) } else { (false, [-z, 1.0 - f1, 1.0 - f0]) };
         // The barycentric weights are non-negative and sum to one: exponent 1 needs no sharpening.
         let mut weights = if setup.exponent == 1.0 { bary } else { sharpen(bary, setup.exponent) };
         if setup.hex && setup.gain != 1.0 {
             weights = contrast_gain(weights, setup.gain);
         }
+        // The blend in f32, like the samples (an f64 square root and division cost as much as a
+        // lookup).
+        Corner { bx, lower, weights: weights.map(|w| w as f32) }
+    }
+
+    /// The blend of the lookups of `corner`'s vertices at (u, v).
+    #[inline(always)]
+    fn blend(&mut self, u: f64, corner: Corner, variance_preserving: bool) -> Vec4 {
+        let prep = self.prep;
+        if self.bx != Some(corner.bx) {
+            self.enter(corner.bx);
+        }
+        let vertices = if corner.lower { [0, 1, 2] } else { [3, 2, 1] };
+        let weights = corner.weights;
         let texel = prep.width as f64;
         let half = Vec4::splat(GAUSS_MEAN as f32);
         let mut acc = Vec4::ZERO;
-        // The blend in f32, like the samples (an f64 square root and division cost as much as a
-        // lookup).
-        let weights = weights.map(|w| w as f32);
         for (&q, &w) in vertices.iter().zip(&weights) {
             if w == 0.0 {
                 continue;
             }
             let vertex = &self.quad[q];
-            let sample = if setup.rotation == 0.0 {
+            let sample = if self.setup.rotation == 0.0 {
                 prep.bilinear_at(u * texel - 0.5 + vertex.offset[0], self.rows[q])
             } else {
                 let ([co, s], centre) = (vertex.turn, vertex.centre);
@@ -789,6 +825,15 @@ impl<'a> Row<'a> {
             acc
         }
     }
+}
+
+/// A point's place on the lattice (see [`Row::corner`]).
+#[derive(Clone, Copy)]
+struct Corner {
+    bx: i64,
+    /// The lower triangle of the cell, vertices 0, 1, 2 of the column; else 3, 2, 1.
+    lower: bool,
+    weights: [f32; 3],
 }
 
 /// w_i^γ normalised to sum 1; divided by the largest first so no exponent underflows all three.
@@ -864,6 +909,21 @@ fn floor(x: f64) -> f64 {
     } else {
         t
     }
+}
+
+/// ⌊x⌋ and 2⁵¹ + ⌊x⌋ as an integer, for |x| < 2⁵¹ (else `None`, NaN included): equal to
+/// [`floor`] and its conversion, without the saturating conversion `as` compiles to.
+#[inline(always)]
+fn floor_biased(x: f64) -> Option<(f64, u64)> {
+    // NaN fails the comparison too.
+    if x.abs().partial_cmp(&ROUND_LIMIT) != Some(std::cmp::Ordering::Less) {
+        return None;
+    }
+    // Adding 1.5·2⁵² rounds to the nearest whole number and leaves 2⁵¹ plus it in the low
+    // mantissa bits; one less where that rounded up. Every step is exact in this range.
+    let near = (x + ROUND) - ROUND;
+    let base = if near > x { near - 1.0 } else { near };
+    Some((base, (base + ROUND).to_bits() & ((1 << 52) - 1)))
 }
 
 /// The random bits a lattice vertex owns.
@@ -1191,6 +1251,23 @@ mod tests {
     fn variance(values: &[f64]) -> f64 {
         let mean = values.iter().sum::<f64>() / values.len() as f64;
         values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / values.len() as f64
+    }
+
+    #[test]
+    fn biased_floor_equals_floor_and_wraps_alike() {
+        let edge = ROUND_LIMIT - 1.0;
+        let mut xs = vec![0.0, -0.0, 0.5, -0.5, 1.5, 2.5, -1.5, -2.5, 0.999_999_999_999, -1e-300, edge, -edge];
+        xs.extend((-2000..2000).map(|k| k as f64 * 0.37 + 1e-9 * k as f64));
+        xs.extend([1e15 + 0.5, -1e15 - 0.5, 2f64.powi(50) + 0.25, -(2f64.powi(50) + 0.75)]);
+        for &x in &xs {
+            let (base, biased) = floor_biased(x).unwrap();
+            assert_eq!(base, x.floor(), "{x}");
+            assert_eq!(biased as i64 - (1 << 51), x.floor() as i64, "{x}");
+            assert_eq!(biased as usize & 127, x.floor().rem_euclid(128.0) as usize, "{x}");
+        }
+        for x in [ROUND_LIMIT, -ROUND_LIMIT, 1e300, f64::INFINITY, f64::NAN] {
+            assert!(floor_biased(x).is_none(), "{x}");
+        }
     }
 
     #[test]
