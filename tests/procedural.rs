@@ -269,3 +269,40 @@ fn sixteen_bit_png_and_exr_samples_fit_like_the_8_bit_photo_and_layers_write_exr
         assert!(off <= 1.5 / 255.0, "{file}: the EXR layer differs from the 8-bit PNG one by {off}");
     }
 }
+
+#[test]
+fn a_masked_fit_takes_one_region_class_and_a_bad_mask_is_a_diagnostic() {
+    let regions = std::fs::read_to_string(repo().join("scenes/noise_regions.tess"))
+        .expect("scene")
+        .replace("../samples/photos/", "photos/");
+    let with = |scene: &str| {
+        let p = Project::new(&[]);
+        std::fs::create_dir_all(p.path("photos")).unwrap();
+        std::fs::copy(repo().join("samples/photos/paving.png"), p.path("photos/paving.png")).unwrap();
+        p.write("scene.tess", scene);
+        p
+    };
+    let p = with(&regions);
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.ok();
+    // The whole photo is cropped to 512² (and warned about); the stones' mask is not a crop.
+    assert!(run.stderr().contains("procedural whole: the sample is 576 x 576"), "{}", run.stderr());
+    assert!(!run.stderr().contains("procedural granite: the sample"), "{}", run.stderr());
+    let granite = Procedural::from_toml(&p.read_text("out/scene/granite.toml")).unwrap();
+    // The setts hold a 32² square at most: four bands, their grey mean (blue well above the
+    // mossy whole's).
+    assert_eq!(granite.sample_size, 32);
+    assert_eq!(granite.channels[0].weights.len(), 4);
+    assert!(granite.mean[2] > 0.5, "{:?}", granite.mean);
+
+    // Hardly any pixel is that blue: no 16² square to measure a spectrum on.
+    let p = with(&regions.replace("  threshold = 0.42\n", "  threshold = 0.9\n"));
+    p.refuses("no 16 x 16 square", "mask = setts");
+    // A mask is an analysis option: a parameter file is already fitted.
+    let p =
+        with(&regions.replace("  from = paving\n  mask = setts\n", "  params = \"granite.toml\"\n  mask = setts\n"));
+    p.refuses("`mask` is an analysis option", "mask = setts");
+    // An orientation field is no mask.
+    let p = with(&regions.replace("channel = b)", "channel = vector)"));
+    p.refuses("must be scalar", "mask = setts");
+}

@@ -21,6 +21,7 @@ use crate::synth::noise::colour::ColourMode;
 use crate::synth::noise::marginal::Abscissa;
 use crate::synth::noise::params::{self, Estimator, FitOptions, HistogramMode, Procedural};
 use crate::synth::noise::spectrum::{Border, ANISOTROPY_LIMIT};
+use crate::synth::noise::NoiseError;
 
 crate::choices!(COLOURS: ColourMode {
     "pca" => ColourMode::Pca, "rgb_independent" => ColourMode::RgbIndependent, "rgb_shared" => ColourMode::RgbShared
@@ -40,6 +41,7 @@ pub static SPEC: KindSpec = KindSpec {
     props: &[
         PropSpec { name: "from", ty: Ty::Ref(&[Value::Image]), default: Default::Absent, doc: "The sample to fit (values as the sample holds them: encoded sRGB for a photo)." },
         PropSpec { name: "params", ty: Ty::Path, default: Default::Absent, doc: "Instead of `from`: a parameter file (`.toml`) to read. Its values are taken as sRGB." },
+        PropSpec { name: "mask", ty: Ty::Ref(&[Value::Map]), default: Default::Absent, doc: "With `from`: fit only the sample's pixels where this map is at least ½ (resampled to the sample's size): one region class of a structured sample, e.g. its stones without their joints. The mean, colour and histograms come from every masked pixel, the band weights from the largest power-of-two square inside the mask (at least 16 x 16)." },
         PropSpec { name: "colour", ty: Ty::Enum(COLOURS.names), default: Default::Text("pca"), doc: "`pca`: channels decorrelated by PCA, each with its own noise (the paper's method); `rgb_independent`: R, G, B apart (false colours); `rgb_shared`: R, G, B on one noise (no colour variation)." },
         PropSpec { name: "histogram", ty: Ty::Enum(HISTOGRAMS.names), default: Default::Text("auto"), doc: "Match each channel's intensity distribution through an inverse-CDF curve: `on`, `off`, or `auto` (on where the channel is measurably not Gaussian: KS > 0.03, |skewness| > 0.3 or |excess kurtosis| > 0.5)." },
         PropSpec { name: "knots", ty: Ty::Int(2, 256), default: Default::Text("10"), doc: "Knots of each inverse-CDF curve." },
@@ -65,12 +67,27 @@ impl super::Encoded for Procedural {
 #[derive(serde::Serialize)]
 struct Fitting {
     sample: In<Image>,
+    mask: Option<In<Image>>,
     options: FitOptions,
 }
 
 fn run_fit(cx: &RunCx, f: &Fitting) -> Result<Procedural, StageError> {
     let sample = cx.get(f.sample);
-    let fitted = params::fit(&sample, &f.options).map_err(|e| StageError::new(e.to_string()).at_prop("from"))?;
+    let mask = match f.mask {
+        Some(m) => {
+            let map = cx.get(m);
+            if map.channels != 1 {
+                return Err(StageError::new("the mask must be scalar, not an orientation field").at_prop("mask"));
+            }
+            let map = super::map::fit(&map, sample.width, sample.height);
+            Some(map.data.iter().map(|&v| v >= 0.5).collect::<Vec<bool>>())
+        }
+        None => None,
+    };
+    let fitted = params::fit_masked(&sample, mask.as_deref(), &f.options).map_err(|e| {
+        let at = if matches!(e, NoiseError::Mask(_)) { "mask" } else { "from" };
+        StageError::new(e.to_string()).at_prop(at)
+    })?;
     if let Some((w, h)) = fitted.cropped_from {
         let n = fitted.params.sample_size;
         cx.warn(format!("the sample is {w} x {h}: its centred {n} x {n} square is fitted (the analysis needs a power-of-two square)"));
@@ -124,14 +141,24 @@ impl super::Kind for ProceduralKind {
                     seed: p.seed(d, "analysis"),
                     extrapolate: props.int("extrapolate_bands") as usize,
                 };
-                let fitting = Fitting { sample: inputs.add(p.value::<Image>(from, at)?), options };
+                let sample = inputs.add(p.value::<Image>(from, at)?);
+                let mask = props.reference("mask").map(|m| inputs.add(p.result::<Image>(m)));
+                let fitting = Fitting { sample, mask, options };
                 let stage = FnStage::keyed("procedural.fit", 1, fitting, run_fit);
                 p.add(format!("procedural {}", d.name), stage, inputs, vec![])
             }
             (None, Some(path)) => {
-                for key in
-                    ["colour", "histogram", "knots", "abscissa", "estimator", "border", "tile", "extrapolate_bands"]
-                {
+                for key in [
+                    "mask",
+                    "colour",
+                    "histogram",
+                    "knots",
+                    "abscissa",
+                    "estimator",
+                    "border",
+                    "tile",
+                    "extrapolate_bands",
+                ] {
                     if let Some(span) = props.span(key) {
                         return Err(Diagnostic::error(format!(
                             "`{key}` is an analysis option: a parameter file is already fitted"

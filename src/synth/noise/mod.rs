@@ -41,6 +41,8 @@ pub enum NoiseError {
     Sample(String),
     #[error("{0}")]
     Options(String),
+    #[error("{0}")]
+    Mask(String),
     #[error("the parameter file: {0}")]
     File(String),
     #[error("cannot morph: {0}")]

@@ -133,6 +133,9 @@ impl Procedural {
     }
 }
 
+/// Three channel planes of the same pixels.
+type Planes = [Vec<f64>; 3];
+
 /// The sample's channels as three planes (grey repeated, alpha dropped).
 fn rgb_planes(img: &Image) -> Result<[Vec<f64>; 3], NoiseError> {
     if img.channels == 0 || img.width == 0 || img.height == 0 {
@@ -150,38 +153,77 @@ fn rgb_planes(img: &Image) -> Result<[Vec<f64>; 3], NoiseError> {
 /// Fits a parameter set to `img` (proposal 4: a sample that is not a power-of-two square is
 /// cropped to its largest centred one; the caller warns).
 pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
+    fit_masked(img, None, opts)
+}
+
+/// [`fit`] to the pixels of `img` where `mask` (row-major, one flag per pixel) is set: one region
+/// class of a structured sample [references: lagae §9]. The mean, colour axes and histogram
+/// curves come from every masked pixel; the band powers from the largest power-of-two square
+/// inside the mask (at least 16², else an error), so no unmasked pixel leaks into the spectrum.
+pub fn fit_masked(img: &Image, mask: Option<&[bool]>, opts: &FitOptions) -> Result<Fitted, NoiseError> {
     if !(2..=256).contains(&opts.knots) {
         return Err(NoiseError::Options(format!("{} histogram knots: between 2 and 256", opts.knots)));
     }
     let planes = rgb_planes(img)?;
     let (w, h) = (img.width, img.height);
-    let mut cropped = Vec::with_capacity(3);
-    let mut n = 0;
-    for p in &planes {
-        let (c, side) = spectrum::pow2_crop(p, w, h)?;
-        n = side;
-        cropped.push(c);
-    }
-    let cropped_from = (w != n || h != n).then_some((w, h));
-    let m = n * n;
-    let (mean, u, decorrelated) = match opts.colour {
-        ColourMode::Pca => {
-            let pca: Pca = pca(&cropped[0], &cropped[1], &cropped[2])?;
-            let mut out = vec![vec![0.0; m]; 3];
-            for i in 0..m {
-                let v = pca.decorrelate([cropped[0][i], cropped[1][i], cropped[2][i]]);
-                for c in 0..3 {
-                    out[c][i] = v[c];
-                }
+    // The region's pixels (colour and marginals) and the square its spectrum is measured on.
+    let (region, square, n): (Planes, Option<Planes>, usize) = match mask {
+        None => {
+            let mut cropped: Planes = Default::default();
+            let mut n = 0;
+            for (c, p) in cropped.iter_mut().zip(&planes) {
+                let (crop, side) = spectrum::pow2_crop(p, w, h)?;
+                (*c, n) = (crop, side);
             }
-            (pca.mean, pca.u, out)
+            (cropped, None, n)
         }
-        ColourMode::RgbIndependent | ColourMode::RgbShared => {
-            let mean: [f64; 3] = std::array::from_fn(|c| cropped[c].iter().sum::<f64>() / m as f64);
-            let out = (0..3).map(|c| cropped[c].iter().map(|v| v - mean[c]).collect()).collect();
-            (mean, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], out)
+        Some(mask) => {
+            if mask.len() != w * h {
+                return Err(NoiseError::Mask(format!("a mask of {} flags for {} pixels", mask.len(), w * h)));
+            }
+            let Some((x0, y0, n)) = spectrum::inscribed_pow2_square(mask, w, h) else {
+                return Err(NoiseError::Mask(format!(
+                    "the mask holds no {0} x {0} square of the sample: too little to measure a spectrum",
+                    spectrum::MIN_SIDE
+                )));
+            };
+            let region = planes.clone().map(|p| p.into_iter().zip(mask).filter(|(_, &m)| m).map(|(v, _)| v).collect());
+            let square = planes.map(|p| (y0..y0 + n).flat_map(|y| p[y * w + x0..y * w + x0 + n].to_vec()).collect());
+            (region, Some(square), n)
         }
     };
+    let cropped_from = (mask.is_none() && (w != n || h != n)).then_some((w, h));
+    let m = n * n;
+    let (mean, u, pca) = match opts.colour {
+        ColourMode::Pca => {
+            let pca: Pca = pca(&region[0], &region[1], &region[2])?;
+            (pca.mean, pca.u, Some(pca))
+        }
+        ColourMode::RgbIndependent | ColourMode::RgbShared => {
+            let k = region[0].len() as f64;
+            let mean: [f64; 3] = std::array::from_fn(|c| region[c].iter().sum::<f64>() / k);
+            (mean, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], None)
+        }
+    };
+    let decorrelate = |planes: &Planes| -> Vec<Vec<f64>> {
+        let len = planes[0].len();
+        let mut out = vec![vec![0.0; len]; 3];
+        for i in 0..len {
+            let p = [planes[0][i], planes[1][i], planes[2][i]];
+            let v = match &pca {
+                Some(pca) => pca.decorrelate(p),
+                None => std::array::from_fn(|c| p[c] - mean[c]),
+            };
+            for (o, v) in out.iter_mut().zip(v) {
+                o[i] = v;
+            }
+        }
+        out
+    };
+    let decorrelated = decorrelate(&region);
+    let square_decorrelated = square.as_ref().map(decorrelate);
+    let measured = square.as_ref().unwrap_or(&region);
+    let luminance: Vec<f64> = (0..m).map(|i| (measured[0][i] + measured[1][i] + measured[2][i]) / 3.0).collect();
     let leakage = match opts.estimator {
         Estimator::Nnls => Some(leakage(&tile::normalised(2, opts.tile, opts.seed, super::SIGMA_N2)?, n, opts.seed)?),
         Estimator::Paper => None,
@@ -190,7 +232,8 @@ pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
     // whichever thread fits it).
     let fitted = decorrelated
         .par_iter()
-        .map(|values| -> Result<(BandPowers, Channel), NoiseError> {
+        .enumerate()
+        .map(|(c, values)| -> Result<(BandPowers, Channel), NoiseError> {
             let on = match opts.histogram {
                 HistogramMode::On => true,
                 HistogramMode::Off => false,
@@ -205,9 +248,15 @@ pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
                     curve.min = lo;
                     curve.max = hi;
                 }
-                (gaussianize_ranked(values, &ranked)?.0, Some(curve))
+                // The spectrum's square is Gaussianised by its own ranks: the same map from
+                // values to z as the region's, up to sampling.
+                let gauss = match &square_decorrelated {
+                    None => gaussianize_ranked(values, &ranked)?.0,
+                    Some(sq) => gaussianize_ranked(&sq[c], &Ranked::new(&sq[c])?)?.0,
+                };
+                (gauss, Some(curve))
             } else {
-                (values.clone(), None)
+                (square_decorrelated.as_ref().map_or(values, |sq| &sq[c]).clone(), None)
             };
             let p = spectrum::band_powers_with(&gauss, n, opts.border)?;
             let mut weights = match &leakage {
@@ -219,7 +268,6 @@ pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
         })
         .collect::<Result<Vec<_>, _>>()?;
     let (powers, channels): (Vec<BandPowers>, Vec<Channel>) = fitted.into_iter().unzip();
-    let luminance: Vec<f64> = (0..m).map(|i| (cropped[0][i] + cropped[1][i] + cropped[2][i]) / 3.0).collect();
     let anisotropy = spectrum::anisotropy(&luminance, n)?;
     let channels: [Channel; 3] = channels.try_into().map_err(|_| NoiseError::Sample("three channels".into()))?;
     let params = Procedural {

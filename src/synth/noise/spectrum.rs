@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 use crate::synth::fft::{fft_real, RealFft2};
 
 /// The smallest side analysed: below 16 there are fewer than three bands to fit.
-const MIN_SIDE: usize = 16;
+pub const MIN_SIDE: usize = 16;
 
 /// Why a sample or a system could not be analysed.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -559,11 +559,60 @@ pub fn pow2_crop(plane: &[f64], width: usize, height: usize) -> Result<(Vec<f64>
     Ok((out, side))
 }
 
+/// The largest power-of-two square (side ≥ [`MIN_SIDE`]) whose pixels are all set in `mask`
+/// (`width × height`, row-major), as (x0, y0, side): centred in the first largest all-set square
+/// in scan order. `None` when no such square fits.
+pub fn inscribed_pow2_square(mask: &[bool], width: usize, height: usize) -> Option<(usize, usize, usize)> {
+    if mask.len() != width.checked_mul(height)? {
+        return None;
+    }
+    // side[x] = the largest all-set square with its bottom-right corner at (x, y), one row at a time.
+    let (mut above, mut side) = (vec![0usize; width], vec![0usize; width]);
+    let mut best = (0, 0, 0);
+    for y in 0..height {
+        for x in 0..width {
+            side[x] = if !mask[y * width + x] {
+                0
+            } else if x == 0 || y == 0 {
+                1
+            } else {
+                1 + above[x].min(above[x - 1]).min(side[x - 1])
+            };
+            if side[x] > best.2 {
+                best = (x + 1 - side[x], y + 1 - side[x], side[x]);
+            }
+        }
+        std::mem::swap(&mut above, &mut side);
+    }
+    let (x, y, s) = best;
+    if s < MIN_SIDE {
+        return None;
+    }
+    let n = 1 << s.ilog2();
+    Some((x + (s - n) / 2, y + (s - n) / 2, n))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::synth::rng::{derive_seed, Rng};
     use std::time::Instant;
+
+    #[test]
+    fn the_inscribed_square_is_the_largest_power_of_two_inside_the_mask() {
+        // A 40 × 30 mask with a 25 × 21 block set at (7, 5) and a stray set pixel elsewhere.
+        let (w, h) = (40, 30);
+        let mask: Vec<bool> =
+            (0..w * h).map(|i| ((7..32).contains(&(i % w)) && (5..26).contains(&(i / w))) || i == 3).collect();
+        // The largest all-set square is 21 at (7, 5); its 16² is centred in it.
+        assert_eq!(inscribed_pow2_square(&mask, w, h), Some((9, 7, 16)));
+        let (x0, y0, n) = inscribed_pow2_square(&mask, w, h).unwrap();
+        assert!((y0..y0 + n).all(|y| (x0..x0 + n).all(|x| mask[y * w + x])));
+        assert_eq!(inscribed_pow2_square(&vec![true; 64 * 64], 64, 64), Some((0, 0, 64)));
+        assert_eq!(inscribed_pow2_square(&vec![true; 15 * 100], 100, 15), None);
+        assert_eq!(inscribed_pow2_square(&[], 0, 0), None);
+        assert_eq!(inscribed_pow2_square(&[true; 3], 2, 2), None);
+    }
 
     fn rng(label: &str) -> Rng {
         Rng::new(derive_seed(17, "noise", label))

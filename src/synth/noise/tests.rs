@@ -4,7 +4,7 @@
 use super::colour::ColourMode;
 use super::eval::{self, Domain, Look, Noise};
 use super::marginal::{ks_two_sample, Abscissa};
-use super::params::{fit, Channel, Estimator, FitOptions, HistogramMode, Procedural, NOISE_VERSION};
+use super::params::{fit, fit_masked, Channel, Estimator, FitOptions, HistogramMode, Procedural, NOISE_VERSION};
 use super::spectrum::{band_powers, BandPowers};
 use crate::raster::Image;
 
@@ -693,4 +693,41 @@ fn a_corrected_slice_keeps_the_planes_band_powers() {
         assert!(with <= 1.0, "corrected slice {with:.2} dB off");
         assert_eq!(without > 1.0, off_without, "{without:.2} dB without the correction");
     }
+}
+
+#[test]
+fn a_masked_fit_sees_only_its_region() {
+    // Two textures side by side, as two region classes of one sample (§9.3).
+    let (a, b) = (correlated_sample(64), skewed_sample(64));
+    let both = Image::from_fn(128, 64, 3, |x, y, c| if x < 64 { a.get(x, y, c) } else { b.get(x - 64, y, c) });
+    let opts = FitOptions { histogram: HistogramMode::On, ..FitOptions::default() };
+    let half = |left: bool| -> Vec<bool> { (0..128 * 64).map(|i| (i % 128 < 64) == left).collect() };
+    // A half mask holds exactly one texture's pixels, in their order, and its 64² square: the fit
+    // is that texture's own, number for number.
+    let left = fit_masked(&both, Some(&half(true)), &opts).unwrap();
+    let right = fit_masked(&both, Some(&half(false)), &opts).unwrap();
+    assert_eq!(left.params, fit(&a, &opts).unwrap().params);
+    assert_eq!(right.params, fit(&b, &opts).unwrap().params);
+    assert_eq!(left.cropped_from, None);
+    // Unmasked, the centred square straddles both and its mean is neither texture's.
+    let mixed = fit(&both, &opts).unwrap().params.mean;
+    let gap = |m: [f64; 3], n: [f64; 3]| (0..3).map(|c| (m[c] - n[c]).abs()).fold(0.0, f64::max);
+    assert!(gap(mixed, left.params.mean) > 0.05 && gap(mixed, right.params.mean) > 0.05, "{mixed:?}");
+
+    // A disc: the colour from every pixel in it, the spectrum from the 32² square inside it.
+    let disc: Vec<bool> =
+        (0..128 * 64).map(|i| ((i % 128) as f64 - 31.5).hypot((i / 128) as f64 - 31.5) < 28.0).collect();
+    let fitted = fit_masked(&both, Some(&disc), &opts).unwrap();
+    assert_eq!(fitted.params.sample_size, 32);
+    assert_eq!(fitted.params.channels[0].weights.len(), 4);
+    let inside: Vec<usize> = (0..128 * 64).filter(|&i| disc[i]).collect();
+    for c in 0..3 {
+        let mean = inside.iter().map(|&i| f64::from(both.get(i % 128, i / 128, c))).sum::<f64>() / inside.len() as f64;
+        assert!((fitted.params.mean[c] - mean).abs() < 1e-12, "channel {c}: {} vs {mean}", fitted.params.mean[c]);
+    }
+
+    // Too little masked, or a mask of the wrong size: errors, not panics.
+    let thin: Vec<bool> = (0..128 * 64).map(|i| i / 128 < 15).collect();
+    assert!(fit_masked(&both, Some(&thin), &opts).unwrap_err().to_string().contains("16 x 16"));
+    assert!(fit_masked(&both, Some(&[true; 10]), &opts).is_err());
 }
