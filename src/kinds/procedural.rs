@@ -19,7 +19,7 @@ use crate::lang::{Decl, Diagnostic};
 use crate::raster::Image;
 use crate::synth::noise::colour::ColourMode;
 use crate::synth::noise::marginal::Abscissa;
-use crate::synth::noise::params::{self, Estimator, FitOptions, HistogramMode, Procedural};
+use crate::synth::noise::params::{self, Estimator, FitOptions, HistogramMode, MaskSpectrum, Procedural};
 use crate::synth::noise::spectrum::{Border, ANISOTROPY_LIMIT};
 use crate::synth::noise::NoiseError;
 
@@ -29,6 +29,7 @@ crate::choices!(COLOURS: ColourMode {
 crate::choices!(HISTOGRAMS: HistogramMode { "auto" => HistogramMode::Auto, "on" => HistogramMode::On, "off" => HistogramMode::Off });
 crate::choices!(ABSCISSAS: Abscissa { "gaussian" => Abscissa::Gaussian, "quantile" => Abscissa::Quantile });
 crate::choices!(ESTIMATORS: Estimator { "paper" => Estimator::Paper, "nnls" => Estimator::Nnls });
+crate::choices!(MASK_SPECTRA: MaskSpectrum { "square" => MaskSpectrum::Square, "masked" => MaskSpectrum::Masked });
 crate::choices!(BORDERS: Border { "none" => Border::None, "periodic_smooth" => Border::PeriodicSmooth });
 
 pub static SPEC: KindSpec = KindSpec {
@@ -42,6 +43,7 @@ pub static SPEC: KindSpec = KindSpec {
         PropSpec { name: "from", ty: Ty::Ref(&[Value::Image]), default: Default::Absent, doc: "The sample to fit (values as the sample holds them: encoded sRGB for a photo)." },
         PropSpec { name: "params", ty: Ty::Path, default: Default::Absent, doc: "Instead of `from`: a parameter file (`.toml`) to read. Its values are taken as sRGB." },
         PropSpec { name: "mask", ty: Ty::Ref(&[Value::Map]), default: Default::Absent, doc: "With `from`: fit only the sample's pixels where this map is at least ½ (resampled to the sample's size): one region class of a structured sample, e.g. its stones without their joints. The mean, colour and histograms come from every masked pixel, the band weights from the largest power-of-two square inside the mask (at least 16 x 16)." },
+        PropSpec { name: "mask_spectrum", ty: Ty::Enum(MASK_SPECTRA.names), default: Default::Text("square"), doc: "With `mask`: where the band weights are measured. `square`: the largest power-of-two square inside the mask (only the class's pixels; the mask must hold a 16 x 16 square); `masked`: the whole sample's centred square with the unmasked pixels at the class's mean, its powers divided by the masked fraction (any shape, thin joints included, but approximate: the mask's edges leak power between bands)." },
         PropSpec { name: "colour", ty: Ty::Enum(COLOURS.names), default: Default::Text("pca"), doc: "`pca`: channels decorrelated by PCA, each with its own noise (the paper's method); `rgb_independent`: R, G, B apart (false colours); `rgb_shared`: R, G, B on one noise (no colour variation)." },
         PropSpec { name: "histogram", ty: Ty::Enum(HISTOGRAMS.names), default: Default::Text("auto"), doc: "Match each channel's intensity distribution through an inverse-CDF curve: `on`, `off`, or `auto` (on where the channel is measurably not Gaussian: KS > 0.03, |skewness| > 0.3 or |excess kurtosis| > 0.5)." },
         PropSpec { name: "knots", ty: Ty::Int(2, 256), default: Default::Text("10"), doc: "Knots of each inverse-CDF curve." },
@@ -140,7 +142,13 @@ impl super::Kind for ProceduralKind {
                     tile: tile_side(d)?,
                     seed: p.seed(d, "analysis"),
                     extrapolate: props.int("extrapolate_bands") as usize,
+                    mask_spectrum: MASK_SPECTRA.get(props.enumeration("mask_spectrum")),
                 };
+                if let (None, Some(span)) = (props.reference("mask"), props.span("mask_spectrum")) {
+                    return Err(Diagnostic::error("`mask_spectrum` applies only to a fit with a `mask`")
+                        .with_code("tessera::procedural")
+                        .with_label(span, "remove this, or add `mask = MAP`"));
+                }
                 let sample = inputs.add(p.value::<Image>(from, at)?);
                 let mask = props.reference("mask").map(|m| inputs.add(p.result::<Image>(m)));
                 let fitting = Fitting { sample, mask, options };

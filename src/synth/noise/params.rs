@@ -56,6 +56,22 @@ pub struct FitOptions {
     /// Bands finer than the sample's pixels added by extrapolating the top bands' weights
     /// (0 to [`MAX_EXTRAPOLATED`]): detail for magnified renders, where the paper's bands stop.
     pub extrapolate: usize,
+    /// Where [`fit_masked`] measures the band powers.
+    pub mask_spectrum: MaskSpectrum,
+}
+
+/// Where a masked fit measures its band powers [references: lagae §9].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MaskSpectrum {
+    /// The largest power-of-two square inside the mask: only the class's pixels, but the mask
+    /// must hold a 16² square.
+    Square,
+    /// The periodogram of the sample's centred power-of-two square with the unmasked pixels at
+    /// the class's mean, divided by the masked fraction (the mean of mask²): any mask shape, an
+    /// approximation (the mask's own edges leak power across bands; for 6-pixel joints every 32
+    /// pixels the finer bands come within 1.5 dB, the coarsest 6 dB low).
+    Masked,
 }
 
 /// The most bands `extrapolate` adds: each halves the finest wavelength, so four carry detail to
@@ -77,6 +93,7 @@ impl Default for FitOptions {
             tile: 256,
             seed: 0,
             extrapolate: 0,
+            mask_spectrum: MaskSpectrum::Square,
         }
     }
 }
@@ -136,6 +153,17 @@ impl Procedural {
 /// Three channel planes of the same pixels.
 type Planes = [Vec<f64>; 3];
 
+/// Where the band powers are measured.
+enum Measure {
+    /// On the region itself: the sample's centred power-of-two square.
+    Region,
+    /// On a power-of-two square inside the mask.
+    Square(Planes),
+    /// On the sample's centred square, `crop` naming each pixel's place in the region (`None`
+    /// outside the mask), `fraction` of them in it.
+    Masked { crop: Vec<Option<usize>>, fraction: f64 },
+}
+
 /// The sample's channels as three planes (grey repeated, alpha dropped).
 fn rgb_planes(img: &Image) -> Result<[Vec<f64>; 3], NoiseError> {
     if img.channels == 0 || img.width == 0 || img.height == 0 {
@@ -166,8 +194,8 @@ pub fn fit_masked(img: &Image, mask: Option<&[bool]>, opts: &FitOptions) -> Resu
     }
     let planes = rgb_planes(img)?;
     let (w, h) = (img.width, img.height);
-    // The region's pixels (colour and marginals) and the square its spectrum is measured on.
-    let (region, square, n): (Planes, Option<Planes>, usize) = match mask {
+    // The region's pixels (colour and marginals) and where its spectrum is measured.
+    let (region, measure, n): (Planes, Measure, usize) = match mask {
         None => {
             let mut cropped: Planes = Default::default();
             let mut n = 0;
@@ -175,24 +203,54 @@ pub fn fit_masked(img: &Image, mask: Option<&[bool]>, opts: &FitOptions) -> Resu
                 let (crop, side) = spectrum::pow2_crop(p, w, h)?;
                 (*c, n) = (crop, side);
             }
-            (cropped, None, n)
+            (cropped, Measure::Region, n)
         }
         Some(mask) => {
             if mask.len() != w * h {
                 return Err(NoiseError::Mask(format!("a mask of {} flags for {} pixels", mask.len(), w * h)));
             }
-            let Some((x0, y0, n)) = spectrum::inscribed_pow2_square(mask, w, h) else {
-                return Err(NoiseError::Mask(format!(
-                    "the mask holds no {0} x {0} square of the sample: too little to measure a spectrum",
-                    spectrum::MIN_SIDE
-                )));
-            };
             let region = planes.clone().map(|p| p.into_iter().zip(mask).filter(|(_, &m)| m).map(|(v, _)| v).collect());
-            let square = planes.map(|p| (y0..y0 + n).flat_map(|y| p[y * w + x0..y * w + x0 + n].to_vec()).collect());
-            (region, Some(square), n)
+            match opts.mask_spectrum {
+                MaskSpectrum::Square => {
+                    let Some((x0, y0, n)) = spectrum::inscribed_pow2_square(mask, w, h) else {
+                        return Err(NoiseError::Mask(format!(
+                            "the mask holds no {0} x {0} square of the sample: too little to measure a spectrum (`mask_spectrum = masked` measures any shape, approximately)",
+                            spectrum::MIN_SIDE
+                        )));
+                    };
+                    let square =
+                        planes.map(|p| (y0..y0 + n).flat_map(|y| p[y * w + x0..y * w + x0 + n].to_vec()).collect());
+                    (region, Measure::Square(square), n)
+                }
+                MaskSpectrum::Masked => {
+                    // Each region pixel's index, then the centred square's pixels as region indices.
+                    let mut next = 0;
+                    let index: Vec<Option<usize>> = mask
+                        .iter()
+                        .map(|&m| {
+                            next += usize::from(m);
+                            m.then(|| next - 1)
+                        })
+                        .collect();
+                    let (crop, n) = spectrum::pow2_crop_with(&index, w, h)?;
+                    let inside = crop.iter().flatten().count();
+                    let least = spectrum::MIN_SIDE * spectrum::MIN_SIDE;
+                    if inside < least {
+                        return Err(NoiseError::Mask(format!(
+                            "the mask holds {inside} pixels of the sample's centred {n} x {n} square: at least {least} are needed to measure a spectrum"
+                        )));
+                    }
+                    let fraction = inside as f64 / (n * n) as f64;
+                    (region, Measure::Masked { crop, fraction }, n)
+                }
+            }
         }
     };
     let cropped_from = (mask.is_none() && (w != n || h != n)).then_some((w, h));
+    let square = match &measure {
+        Measure::Square(square) => Some(square),
+        _ => None,
+    };
     let m = n * n;
     let (mean, u, pca) = match opts.colour {
         ColourMode::Pca => {
@@ -221,9 +279,16 @@ pub fn fit_masked(img: &Image, mask: Option<&[bool]>, opts: &FitOptions) -> Resu
         out
     };
     let decorrelated = decorrelate(&region);
-    let square_decorrelated = square.as_ref().map(decorrelate);
-    let measured = square.as_ref().unwrap_or(&region);
-    let luminance: Vec<f64> = (0..m).map(|i| (measured[0][i] + measured[1][i] + measured[2][i]) / 3.0).collect();
+    let square_decorrelated = square.map(decorrelate);
+    let grey = |p: &Planes, i: usize| (p[0][i] + p[1][i] + p[2][i]) / 3.0;
+    let luminance: Vec<f64> = match &measure {
+        Measure::Region => (0..m).map(|i| grey(&region, i)).collect(),
+        Measure::Square(square) => (0..m).map(|i| grey(square, i)).collect(),
+        Measure::Masked { crop, .. } => {
+            let mean = (0..region[0].len()).map(|i| grey(&region, i)).sum::<f64>() / region[0].len() as f64;
+            crop.iter().map(|k| k.map_or(mean, |k| grey(&region, k))).collect()
+        }
+    };
     let leakage = match opts.estimator {
         Estimator::Nnls => Some(leakage(&tile::normalised(2, opts.tile, opts.seed, super::SIGMA_N2)?, n, opts.seed)?),
         Estimator::Paper => None,
@@ -248,8 +313,8 @@ pub fn fit_masked(img: &Image, mask: Option<&[bool]>, opts: &FitOptions) -> Resu
                     curve.min = lo;
                     curve.max = hi;
                 }
-                // The spectrum's square is Gaussianised by its own ranks: the same map from
-                // values to z as the region's, up to sampling.
+                // A square is Gaussianised by its own ranks: the same map from values to z as
+                // the region's, up to sampling.
                 let gauss = match &square_decorrelated {
                     None => gaussianize_ranked(values, &ranked)?.0,
                     Some(sq) => gaussianize_ranked(&sq[c], &Ranked::new(&sq[c])?)?.0,
@@ -258,7 +323,17 @@ pub fn fit_masked(img: &Image, mask: Option<&[bool]>, opts: &FitOptions) -> Resu
             } else {
                 (square_decorrelated.as_ref().map_or(values, |sq| &sq[c]).clone(), None)
             };
-            let p = spectrum::band_powers_with(&gauss, n, opts.border)?;
+            let p = match &measure {
+                Measure::Masked { crop, fraction } => {
+                    // Both are zero-mean over the region, so the unmasked pixels sit at its mean.
+                    let plane: Vec<f64> = crop.iter().map(|k| k.map_or(0.0, |k| gauss[k])).collect();
+                    let mut p = spectrum::band_powers_with(&plane, n, opts.border)?;
+                    p.powers.iter_mut().for_each(|v| *v /= fraction);
+                    p.nyquist /= fraction;
+                    p
+                }
+                _ => spectrum::band_powers_with(&gauss, n, opts.border)?,
+            };
             let mut weights = match &leakage {
                 None => spectrum::weights_paper(&p, super::SIGMA_N2),
                 Some(k) => spectrum::weights_nnls(&p, k)?,

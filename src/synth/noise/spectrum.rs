@@ -543,6 +543,11 @@ pub fn anisotropy(plane: &[f64], n: usize) -> Result<f64, SpectrumError> {
 
 /// Centred crop of a W×H plane to the largest power-of-two square (proposal 4); errors under 16×16.
 pub fn pow2_crop(plane: &[f64], width: usize, height: usize) -> Result<(Vec<f64>, usize), SpectrumError> {
+    pow2_crop_with(plane, width, height)
+}
+
+/// [`pow2_crop`] of a plane of anything.
+pub fn pow2_crop_with<T: Copy>(plane: &[T], width: usize, height: usize) -> Result<(Vec<T>, usize), SpectrumError> {
     if width < MIN_SIDE || height < MIN_SIDE {
         return Err(SpectrumError::TooSmall { width, height });
     }
