@@ -186,8 +186,9 @@ pub fn fit(img: &Image, opts: &FitOptions) -> Result<Fitted, NoiseError> {
 
 /// [`fit`] to the pixels of `img` where `mask` (row-major, one flag per pixel) is set: one region
 /// class of a structured sample [references: lagae §9]. The mean, colour axes and histogram
-/// curves come from every masked pixel; the band powers from the largest power-of-two square
-/// inside the mask (at least 16², else an error), so no unmasked pixel leaks into the spectrum.
+/// curves come from every masked pixel; the band powers as `opts.mask_spectrum` says (see
+/// [`MaskSpectrum`]): from the largest power-of-two square inside the mask, so that no unmasked
+/// pixel leaks into the spectrum, or from the masked periodogram for any shape.
 pub fn fit_masked(img: &Image, mask: Option<&[bool]>, opts: &FitOptions) -> Result<Fitted, NoiseError> {
     if !(2..=256).contains(&opts.knots) {
         return Err(NoiseError::Options(format!("{} histogram knots: between 2 and 256", opts.knots)));
