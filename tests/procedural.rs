@@ -299,6 +299,8 @@ fn a_masked_fit_takes_one_region_class_and_a_bad_mask_is_a_diagnostic() {
     let p =
         with(&regions.replace("  from = paving\n  mask = setts\n", "  params = \"granite.toml\"\n  mask = setts\n"));
     p.refuses("`mask` is an analysis option", "mask = setts");
+    let p = with(&regions.replace("  from = paving\n  mask = joints\n", "  params = \"granite.toml\"\n"));
+    p.refuses("`mask_spectrum` is an analysis option", "mask_spectrum = masked");
     // Hardly any pixel is that blue: no 16² square for the setts' spectrum (the joints, measured
     // by the masked periodogram, still fit); the masked periodogram needs a mask.
     let p = with(&regions.replace("  threshold = 0.42\n", "  threshold = 0.9\n"));

@@ -42,7 +42,7 @@ pub static SPEC: KindSpec = KindSpec {
     props: &[
         PropSpec { name: "from", ty: Ty::Ref(&[Value::Image]), default: Default::Absent, doc: "The sample to fit (values as the sample holds them: encoded sRGB for a photo)." },
         PropSpec { name: "params", ty: Ty::Path, default: Default::Absent, doc: "Instead of `from`: a parameter file (`.toml`) to read. Its values are taken as sRGB." },
-        PropSpec { name: "mask", ty: Ty::Ref(&[Value::Map]), default: Default::Absent, doc: "With `from`: fit only the sample's pixels where this map is at least ½ (resampled to the sample's size): one region class of a structured sample, e.g. its stones without their joints. The mean, colour and histograms come from every masked pixel, the band weights from the largest power-of-two square inside the mask (at least 16 x 16)." },
+        PropSpec { name: "mask", ty: Ty::Ref(&[Value::Map]), default: Default::Absent, doc: "With `from`: fit only the sample's pixels where this map is at least ½ (resampled to the sample's size): one region class of a structured sample, e.g. its stones without their joints. The mean, colour and histograms come from every masked pixel, the band weights as `mask_spectrum` says." },
         PropSpec { name: "mask_spectrum", ty: Ty::Enum(MASK_SPECTRA.names), default: Default::Text("square"), doc: "With `mask`: where the band weights are measured. `square`: the largest power-of-two square inside the mask (only the class's pixels; the mask must hold a 16 x 16 square); `masked`: the whole sample's centred square with the unmasked pixels at the class's mean, its powers divided by the masked fraction (any shape, thin joints included, but approximate: the mask's edges leak power between bands)." },
         PropSpec { name: "colour", ty: Ty::Enum(COLOURS.names), default: Default::Text("pca"), doc: "`pca`: channels decorrelated by PCA, each with its own noise (the paper's method); `rgb_independent`: R, G, B apart (false colours); `rgb_shared`: R, G, B on one noise (no colour variation)." },
         PropSpec { name: "histogram", ty: Ty::Enum(HISTOGRAMS.names), default: Default::Text("auto"), doc: "Match each channel's intensity distribution through an inverse-CDF curve: `on`, `off`, or `auto` (on where the channel is measurably not Gaussian: KS > 0.03, |skewness| > 0.3 or |excess kurtosis| > 0.5)." },
@@ -158,6 +158,7 @@ impl super::Kind for ProceduralKind {
             (None, Some(path)) => {
                 for key in [
                     "mask",
+                    "mask_spectrum",
                     "colour",
                     "histogram",
                     "knots",
