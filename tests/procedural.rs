@@ -14,8 +14,13 @@ fn scene() -> String {
 }
 
 fn project(scene: &str) -> Project {
+    project_with(scene, &["gravel.png", "grass.png"])
+}
+
+/// A project holding `scene` and these photos of `samples/photos` under `photos/`.
+fn project_with(scene: &str, photos: &[&str]) -> Project {
     let p = Project::new(&[]);
-    for f in ["gravel.png", "grass.png"] {
+    for f in photos {
         std::fs::create_dir_all(p.path("photos")).unwrap();
         std::fs::copy(repo().join("samples/photos").join(f), p.path("photos").join(f)).unwrap();
     }
@@ -275,13 +280,7 @@ fn a_masked_fit_takes_one_region_class_and_a_bad_mask_is_a_diagnostic() {
     let regions = std::fs::read_to_string(repo().join("scenes/noise_regions.tess"))
         .expect("scene")
         .replace("../samples/photos/", "photos/");
-    let with = |scene: &str| {
-        let p = Project::new(&[]);
-        std::fs::create_dir_all(p.path("photos")).unwrap();
-        std::fs::copy(repo().join("samples/photos/paving.png"), p.path("photos/paving.png")).unwrap();
-        p.write("scene.tess", scene);
-        p
-    };
+    let with = |scene: &str| project_with(scene, &["paving.png"]);
     let p = with(&regions);
     let run = p.tessera(&["build", "scene.tess"]);
     run.ok();

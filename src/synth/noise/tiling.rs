@@ -775,7 +775,10 @@ impl<'a> Row<'a> {
         let s0 = u * setup.inv_scale - self.shear;
         let (base, bx) = match floor_biased(s0) {
             Some((base, biased)) => (base, biased as i64 - (1 << 51)),
-            None => (floor(s0), floor(s0) as i64),
+            None => {
+                let base = floor(s0);
+                (base, base as i64)
+            }
         };
         let f0 = s0 - base;
         let f1 = self.f1;
