@@ -35,6 +35,9 @@ use rayon::prelude::*;
 /// pixels, well under the histogram tolerance, at 4 KiB a channel.
 const LUT_LEN: usize = 1024;
 
+/// Pixels whose texel coordinates a row computes ahead of their lookups (on the stack).
+const CHUNK: usize = 64;
+
 /// The largest output (and exemplar) one call makes, in pixels (64 Mi).
 pub const MAX_PIXELS: u64 = 1 << 26;
 
@@ -341,7 +344,9 @@ impl Prepared {
         let whole = Vec4::select(near.cmpgt(t), near - Vec4::ONE, near).min(Vec4::splat(LUT_LEN as f32 - 2.0));
         // whole + 2²³ holds the index in its low mantissa bits; the mask changes no index and
         // proves the reads in bounds.
-        let i = (whole + magic).to_array().map(|v| v.to_bits() as usize & (LUT_LEN - 1));
+        let bits = (whole + magic).to_array();
+        let lane = |l: usize| bits[l].to_bits() as usize & (LUT_LEN - 1);
+        let i = [lane(0), lane(1), lane(2), lane(3)];
         let at = |k: usize| (self.tables[k][i[k]], self.tables[k][i[k] + 1]);
         let [(a0, b0), (a1, b1), (a2, b2), (a3, b3)] = [at(0), at(1), at(2), at(3)];
         let (a, b) = (Vec4::new(a0, a1, a2, a3), Vec4::new(b0, b1, b2, b3));
@@ -362,6 +367,63 @@ impl Prepared {
             *o = mean[j] + rows[j].iter().zip(&p).map(|(b, v)| b * v).sum::<f32>();
         }
         out
+    }
+
+    /// [`Prepared::colour`] of a row of blended values into the row's planes (one per channel, the
+    /// rest empty), four pixels at a time with one pixel per lane: the same operations per lane as
+    /// `colour` (a pixel with a NaN lane all NaN, the mix's sum in its order), so the same bits,
+    /// and a channel's four values are one store.
+    fn colour_row(&self, gauss: &[Vec4], mut planes: [&mut [f32]; 4]) {
+        let c = self.channels;
+        let blocks = gauss.len() / 4;
+        let magic = Vec4::splat(8_388_608.0);
+        let top = Vec4::splat((LUT_LEN - 1) as f32);
+        for b in 0..blocks {
+            let at = b * 4;
+            let m = glam::Mat4::from_cols(gauss[at], gauss[at + 1], gauss[at + 2], gauss[at + 3]).transpose();
+            let g = [m.x_axis, m.y_axis, m.z_axis, m.w_axis];
+            let nan = g[0].is_nan_mask() | g[1].is_nan_mask() | g[2].is_nan_mask() | g[3].is_nan_mask();
+            let mut p = [Vec4::ZERO; 4];
+            for k in 0..c {
+                let (lo, step) = (self.lut_lo.to_array()[k], self.lut_step.to_array()[k]);
+                let t = ((g[k] - Vec4::splat(lo)) * Vec4::splat(step)).clamp(Vec4::ZERO, top);
+                let near = (t + magic) - magic;
+                let whole = Vec4::select(near.cmpgt(t), near - Vec4::ONE, near).min(Vec4::splat(LUT_LEN as f32 - 2.0));
+                let bits = (whole + magic).to_array();
+                let lane = |l: usize| bits[l].to_bits() as usize & (LUT_LEN - 1);
+                let i = [lane(0), lane(1), lane(2), lane(3)];
+                let table = &self.tables[k];
+                let a = Vec4::new(table[i[0]], table[i[1]], table[i[2]], table[i[3]]);
+                let e = Vec4::new(table[i[0] + 1], table[i[1] + 1], table[i[2] + 1], table[i[3] + 1]);
+                p[k] = Vec4::select(nan, Vec4::NAN, a + (e - a) * (t - whole));
+            }
+            for lane in &mut p[c..] {
+                *lane = Vec4::select(nan, Vec4::NAN, Vec4::ZERO);
+            }
+            match &self.mix {
+                None => {
+                    for k in 0..c {
+                        planes[k][at..at + 4].copy_from_slice(&p[k].to_array());
+                    }
+                }
+                Some((mean, rows)) => {
+                    for j in 0..c {
+                        let r = rows[j];
+                        let sum = Vec4::splat(r[0]) * p[0]
+                            + Vec4::splat(r[1]) * p[1]
+                            + Vec4::splat(r[2]) * p[2]
+                            + Vec4::splat(r[3]) * p[3];
+                        planes[j][at..at + 4].copy_from_slice(&(Vec4::splat(mean[j]) + sum).to_array());
+                    }
+                }
+            }
+        }
+        for x in blocks * 4..gauss.len() {
+            let px = self.colour(gauss[x]);
+            for (plane, &value) in planes.iter_mut().zip(&px[..c]) {
+                plane[x] = value;
+            }
+        }
     }
 
     /// Bilinear lookup of every Gaussianised channel at texel coordinates (texel centres at
@@ -391,6 +453,13 @@ impl Prepared {
         if fx == 0.0 && rows.weight == 0.0 {
             return t[rows.first + x0];
         }
+        self.bilinear_texels(x0, x1, fx, rows)
+    }
+
+    /// The bilinear blend of texel columns `x0`, `x1` (weight `fx` on the second) of `rows`.
+    #[inline(always)]
+    fn bilinear_texels(&self, x0: usize, x1: usize, fx: f32, rows: TexelRows) -> Vec4 {
+        let t = &self.texels;
         let lerp = |a: Vec4, b: Vec4, f: f32| a + (b - a) * f;
         let top = lerp(t[rows.first + x0], t[rows.first + x1], fx);
         let bottom = lerp(t[rows.second + x0], t[rows.second + x1], fx);
@@ -594,33 +663,19 @@ pub fn render(
             for (x, corner) in corners.iter_mut().enumerate() {
                 *corner = row.corner(u(x));
             }
-            for (x, (g, &corner)) in gauss.iter_mut().zip(&corners).enumerate() {
-                *g = row.blend(u(x), corner, true);
+            if setup.rotation == 0.0 {
+                row.blend_row(u, &corners, &mut gauss);
+            } else {
+                for (x, (g, &corner)) in gauss.iter_mut().zip(&corners).enumerate() {
+                    *g = row.blend(u(x), corner, true);
+                }
             }
             let span = r * width..(r + 1) * width;
-            // The common channel counts with their row slices fixed, so that a pixel is one store
-            // per channel with no bounds check.
-            match &mut planes[..] {
-                [p0, p1, p2] => {
-                    let (p0, p1, p2) = (&mut p0[span.clone()], &mut p1[span.clone()], &mut p2[span.clone()]);
-                    for (((o0, o1), o2), &g) in p0.iter_mut().zip(p1.iter_mut()).zip(p2.iter_mut()).zip(&gauss) {
-                        [*o0, *o1, *o2, _] = prep.colour(g);
-                    }
-                }
-                [p0] => {
-                    for (o0, &g) in p0[span].iter_mut().zip(&gauss) {
-                        *o0 = prep.colour(g)[0];
-                    }
-                }
-                planes => {
-                    for (x, &g) in gauss.iter().enumerate() {
-                        let px = prep.colour(g);
-                        for (plane, &value) in planes.iter_mut().zip(&px[..c]) {
-                            plane[span.start + x] = value;
-                        }
-                    }
-                }
+            let mut rows: [&mut [f32]; 4] = [&mut [], &mut [], &mut [], &mut []];
+            for (slot, plane) in rows.iter_mut().zip(planes.iter_mut()) {
+                *slot = &mut plane[span.clone()];
             }
+            prep.colour_row(&gauss, rows);
         }
     });
     Ok(image)
@@ -783,7 +838,9 @@ impl<'a> Row<'a> {
         let f0 = s0 - base;
         let f1 = self.f1;
         let z = 1.0 - f0 - f1;
-        let (lower, bary) = if z > 0.0 { (true, [z, f1, f0]) } else { (false, [-z, 1.0 - f1, 1.0 - f0]) };
+        // Selects rather than a branch: which triangle changes from pixel to pixel.
+        let lower = z > 0.0;
+        let bary = [if lower { z } else { -z }, if lower { f1 } else { 1.0 - f1 }, if lower { f0 } else { 1.0 - f0 }];
         // The barycentric weights are non-negative and sum to one: exponent 1 needs no sharpening.
         let mut weights = if setup.exponent == 1.0 { bary } else { sharpen(bary, setup.exponent) };
         if setup.hex && setup.gain != 1.0 {
@@ -791,7 +848,7 @@ impl<'a> Row<'a> {
         }
         // The blend in f32, like the samples (an f64 square root and division cost as much as a
         // lookup).
-        Corner { bx, lower, weights: weights.map(|w| w as f32) }
+        Corner { bx, lower, weights: [weights[0] as f32, weights[1] as f32, weights[2] as f32] }
     }
 
     /// The blend of the lookups of `corner`'s vertices at (u, v).
@@ -830,6 +887,74 @@ impl<'a> Row<'a> {
     }
 }
 
+impl Row<'_> {
+    /// [`Row::blend`] of a whole row without rotation (`render`'s inner loop), by runs of pixels
+    /// that share a cell column and triangle: a run's vertices and texel rows are fixed, and a
+    /// chunk of pixels has its texel coordinates computed before any lookup. The same operations
+    /// in the same order as `blend`, so the same bits (a vertex of weight 0 adds ±0 where `blend`
+    /// skips it, which changes neither a non-zero sum nor ½ + 0).
+    ///
+    /// `u` must keep |u|·width under 2⁴⁰, as `render` checks: ⌊x⌋ then needs no range test.
+    fn blend_row(&mut self, u: impl Fn(usize) -> f64, corners: &[Corner], gauss: &mut [Vec4]) {
+        let prep = self.prep;
+        let width = prep.width;
+        let texel = width as f64;
+        let half = Vec4::splat(GAUSS_MEAN as f32);
+        let mut index = [[0usize; CHUNK]; 3];
+        let mut fraction = [[0f32; CHUNK]; 3];
+        let mut x = 0;
+        while x < corners.len() {
+            let first = corners[x];
+            let len = corners[x..]
+                .iter()
+                .position(|c| c.bx != first.bx || c.lower != first.lower)
+                .unwrap_or(corners.len() - x);
+            if self.bx != Some(first.bx) {
+                self.enter(first.bx);
+            }
+            let order = if first.lower { [0, 1, 2] } else { [3, 2, 1] };
+            let offset = order.map(|q| self.quad[q].offset[0]);
+            let rows = order.map(|q| self.rows[q]);
+            for start in (x..x + len).step_by(CHUNK) {
+                let n = CHUNK.min(x + len - start);
+                for i in 0..n {
+                    let t = u(start + i) * texel - 0.5;
+                    for k in 0..3 {
+                        let y = t + offset[k];
+                        debug_assert!(y.abs() < ROUND_LIMIT);
+                        (index[k][i], fraction[k][i]) = if width.is_power_of_two() {
+                            // `floor_biased` without its range test, and `wrap`'s mask.
+                            let near = (y + ROUND) - ROUND;
+                            let base = if near > y { near - 1.0 } else { near };
+                            ((base + ROUND).to_bits() as usize & (width - 1), (y - base) as f32)
+                        } else {
+                            let (x0, fx) = wrap(y, width);
+                            (x0, fx as f32)
+                        };
+                    }
+                }
+                for (i, (g, c)) in gauss[start..start + n].iter_mut().zip(&corners[start..start + n]).enumerate() {
+                    let w = c.weights;
+                    let mut acc = Vec4::ZERO;
+                    for k in 0..3 {
+                        let (x0, fx, r) = (index[k][i], fraction[k][i], rows[k]);
+                        // On texel centres, one texel (see `bilinear_at`).
+                        let sample = if fx == 0.0 && r.weight == 0.0 {
+                            prep.texels[r.first + x0]
+                        } else {
+                            prep.bilinear_texels(x0, if x0 + 1 == width { 0 } else { x0 + 1 }, fx, r)
+                        };
+                        acc += (sample - half) * w[k];
+                    }
+                    let norm = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+                    *g = half + acc * (1.0 / norm);
+                }
+            }
+            x += len;
+        }
+    }
+}
+
 /// A point's place on the lattice (see [`Row::corner`]).
 #[derive(Clone, Copy)]
 struct Corner {
@@ -846,9 +971,13 @@ fn sharpen(w: [f64; 3], exponent: f64) -> [f64; 3] {
     if top.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return [f64::NAN; 3];
     }
-    let p = w.map(|x| power(x.max(0.0) / top, exponent));
+    let p = [
+        power(w[0].max(0.0) / top, exponent),
+        power(w[1].max(0.0) / top, exponent),
+        power(w[2].max(0.0) / top, exponent),
+    ];
     let sum = p[0] + p[1] + p[2];
-    p.map(|x| x / sum)
+    [p[0] / sum, p[1] / sum, p[2] / sum]
 }
 
 /// x^e, by repeated squaring for the small whole exponents (1, Mikkelsen's 7) that are the common
@@ -878,9 +1007,10 @@ fn power(x: f64, e: f64) -> f64 {
 
 /// Mikkelsen's `Gain3`: each weight through the gain curve of exponent k, renormalised.
 fn contrast_gain(w: [f64; 3], k: f64) -> [f64; 3] {
-    let p = w.map(|x| if x < 0.5 { 0.5 * (2.0 * x).powf(k) } else { 1.0 - 0.5 * (2.0 - 2.0 * x).powf(k) });
+    let gain = |x: f64| if x < 0.5 { 0.5 * (2.0 * x).powf(k) } else { 1.0 - 0.5 * (2.0 - 2.0 * x).powf(k) };
+    let p = [gain(w[0]), gain(w[1]), gain(w[2])];
     let sum = p[0] + p[1] + p[2];
-    p.map(|x| x / sum)
+    [p[0] / sum, p[1] / sum, p[2] / sum]
 }
 
 /// The texel index (modulo `period`) at or below coordinate `x`, and the fraction above it.
@@ -1504,6 +1634,62 @@ mod tests {
             eval(&prep, &p, [-0.75 + (x as f64 + 0.5) * texel, 0.5 + (y as f64 + 0.5) * texel], &mut single);
             for (c, v) in single.iter().enumerate() {
                 assert_eq!(v.to_bits(), big.get(x, y, c).to_bits());
+            }
+        }
+    }
+
+    /// `render` evaluates a row in runs, four colours at a time; `eval` one point at a time. They
+    /// agree bit for bit on every path: power-of-two and other widths, 1–4 channels, with and
+    /// without PCA, on and off texel centres, rows whose width is not a multiple of four, with
+    /// and without rotation, every weighting.
+    #[test]
+    fn render_equals_eval_at_every_pixel() {
+        let pattern = |w: usize, h: usize, c: usize| {
+            Image::from_fn(w, h, c, |x, y, k| {
+                let v = splitmix64((x * 7919 + y * 104_729 + k * 15_485_863) as u64);
+                (v >> 40) as f32 / (1u64 << 24) as f32 + 0.3 * k as f32
+            })
+        };
+        let cases = [
+            (noise_exemplar(), [0.0, 0.0, 1.0, 0.375], 128, 48),
+            (pattern(24, 20, 1), [-0.3, 0.2, 1.9, 1.7], 37, 29),
+            (pattern(32, 16, 2), [0.1, -0.7, 2.3, 0.9], 45, 22),
+            (pattern(20, 30, 4), [0.0, 0.0, 2.0, 3.0], 40, 60),
+        ];
+        let settings = [
+            params(Grid::Triangle),
+            TilingParams { exponent: 3.5, scale: 0.3, ..params(Grid::Triangle) },
+            params(Grid::Hex),
+            TilingParams { contrast: 0.8, ..params(Grid::Hex) },
+            TilingParams { rotation: 0.6, ..params(Grid::Triangle) },
+            // Cells wider than a chunk of pixels.
+            TilingParams { scale: 1.5, ..params(Grid::Triangle) },
+        ];
+        for (ex, region, w, h) in cases {
+            for decorrelate in [false, true] {
+                let prep = prepare(&ex, decorrelate).expect("prepare");
+                for p in settings {
+                    let out = render(&prep, &p, w, h, region).expect("render");
+                    let (du, dv) = ((region[2] - region[0]) / w as f64, (region[3] - region[1]) / h as f64);
+                    let mut px = vec![0f32; ex.channels];
+                    for y in 0..h {
+                        for x in 0..w {
+                            let uv = [region[0] + (x as f64 + 0.5) * du, region[1] + (y as f64 + 0.5) * dv];
+                            eval(&prep, &p, uv, &mut px);
+                            for (c, v) in px.iter().enumerate() {
+                                let got = out.get(x, y, c);
+                                assert_eq!(
+                                    got.to_bits(),
+                                    v.to_bits(),
+                                    "{}×{}×{} PCA {decorrelate} {p:?}: pixel ({x}, {y}) channel {c}: {got} vs {v}",
+                                    ex.width,
+                                    ex.height,
+                                    ex.channels
+                                );
+                            }
+                        }
+                    }
+                }
             }
         }
     }
