@@ -660,8 +660,18 @@ pub fn render(
         for r in 0..rows {
             let mut row = Row::new(prep, &setup, v0 + ((b * band_rows + r) as f64 + 0.5) * dv);
             let u = |x: usize| u0 + (x as f64 + 0.5) * du;
-            for (x, corner) in corners.iter_mut().enumerate() {
-                *corner = row.corner(u(x));
+            if setup.hex && setup.gain == 1.0 {
+                for (i, pair) in corners.chunks_mut(2).enumerate() {
+                    match pair {
+                        [a, b] => [*a, *b] = row.hex_corners(u(2 * i), u(2 * i + 1)),
+                        [a] => *a = row.corner(u(2 * i)),
+                        _ => {}
+                    }
+                }
+            } else {
+                for (x, corner) in corners.iter_mut().enumerate() {
+                    *corner = row.corner(u(x));
+                }
             }
             if setup.rotation == 0.0 {
                 row.blend_row(u, &corners, &mut gauss);
@@ -826,8 +836,29 @@ impl<'a> Row<'a> {
     #[inline(always)]
     fn corner(&self, u: f64) -> Corner {
         let setup = self.setup;
+        let (bx, lower, bary) = self.place(u);
+        // The barycentric weights are non-negative and sum to one: exponent 1 needs no sharpening.
+        let mut weights = if setup.exponent == 1.0 { bary } else { sharpen(bary, setup.exponent) };
+        if setup.hex && setup.gain != 1.0 {
+            weights = contrast_gain(weights, setup.gain);
+        }
+        Corner::new(bx, lower, weights)
+    }
+
+    /// [`Row::corner`] of two points on the hex grid with the default contrast: their sharpenings
+    /// side by side, which the compiler pairs into two-lane divisions (the hex grid's main cost).
+    #[inline(always)]
+    fn hex_corners(&self, ua: f64, ub: f64) -> [Corner; 2] {
+        let ((bxa, lowera, a), (bxb, lowerb, b)) = (self.place(ua), self.place(ub));
+        let [wa, wb] = sharpen_pair(a, b);
+        [Corner::new(bxa, lowera, wa), Corner::new(bxb, lowerb, wb)]
+    }
+
+    /// u's cell column, whether it is in the cell's lower triangle, and its barycentric weights.
+    #[inline(always)]
+    fn place(&self, u: f64) -> (i64, bool, [f64; 3]) {
         // HN's `TriangleGrid` in the skewed lattice: the point's cell and its triangle.
-        let s0 = u * setup.inv_scale - self.shear;
+        let s0 = u * self.setup.inv_scale - self.shear;
         let (base, bx) = match floor_biased(s0) {
             Some((base, biased)) => (base, biased as i64 - (1 << 51)),
             None => {
@@ -841,14 +872,7 @@ impl<'a> Row<'a> {
         // Selects rather than a branch: which triangle changes from pixel to pixel.
         let lower = z > 0.0;
         let bary = [if lower { z } else { -z }, if lower { f1 } else { 1.0 - f1 }, if lower { f0 } else { 1.0 - f0 }];
-        // The barycentric weights are non-negative and sum to one: exponent 1 needs no sharpening.
-        let mut weights = if setup.exponent == 1.0 { bary } else { sharpen(bary, setup.exponent) };
-        if setup.hex && setup.gain != 1.0 {
-            weights = contrast_gain(weights, setup.gain);
-        }
-        // The blend in f32, like the samples (an f64 square root and division cost as much as a
-        // lookup).
-        Corner { bx, lower, weights: [weights[0] as f32, weights[1] as f32, weights[2] as f32] }
+        (bx, lower, bary)
     }
 
     /// The blend of the lookups of `corner`'s vertices at (u, v).
@@ -964,6 +988,15 @@ struct Corner {
     weights: [f32; 3],
 }
 
+impl Corner {
+    /// The blend is in f32, like the samples (an f64 square root and division cost as much as a
+    /// lookup).
+    #[inline(always)]
+    fn new(bx: i64, lower: bool, w: [f64; 3]) -> Corner {
+        Corner { bx, lower, weights: [w[0] as f32, w[1] as f32, w[2] as f32] }
+    }
+}
+
 /// w_i^γ normalised to sum 1; divided by the largest first so no exponent underflows all three.
 fn sharpen(w: [f64; 3], exponent: f64) -> [f64; 3] {
     let top = w[0].max(w[1]).max(w[2]);
@@ -978,6 +1011,25 @@ fn sharpen(w: [f64; 3], exponent: f64) -> [f64; 3] {
     ];
     let sum = p[0] + p[1] + p[2];
     [p[0] / sum, p[1] / sum, p[2] / sum]
+}
+
+/// [`sharpen`] of two points' weights by Mikkelsen's exponent, written lane by lane so that the
+/// divisions pair up; falls back to `sharpen` where it would return NaN.
+#[inline(always)]
+fn sharpen_pair(a: [f64; 3], b: [f64; 3]) -> [[f64; 3]; 2] {
+    let top = [a[0].max(a[1]).max(a[2]), b[0].max(b[1]).max(b[2])];
+    if !(top[0] > 0.0 && top[1] > 0.0) {
+        return [sharpen(a, HEX_EXPONENT), sharpen(b, HEX_EXPONENT)];
+    }
+    // `power`'s x⁷ per lane, in its order.
+    let lanes = |k: usize| {
+        let x = [a[k].max(0.0) / top[0], b[k].max(0.0) / top[1]];
+        let x2 = [x[0] * x[0], x[1] * x[1]];
+        [(x[0] * x2[0]) * (x2[0] * x2[0]), (x[1] * x2[1]) * (x2[1] * x2[1])]
+    };
+    let p = [lanes(0), lanes(1), lanes(2)];
+    let sum = [p[0][0] + p[1][0] + p[2][0], p[0][1] + p[1][1] + p[2][1]];
+    [[p[0][0] / sum[0], p[1][0] / sum[0], p[2][0] / sum[0]], [p[0][1] / sum[1], p[1][1] / sum[1], p[2][1] / sum[1]]]
 }
 
 /// x^e, by repeated squaring for the small whole exponents (1, Mikkelsen's 7) that are the common
