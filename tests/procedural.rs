@@ -294,19 +294,29 @@ fn a_masked_fit_takes_one_region_class_and_a_bad_mask_is_a_diagnostic() {
     assert_eq!(granite.channels[0].weights.len(), 4);
     assert!(granite.mean[2] > 0.5, "{:?}", granite.mean);
 
-    // A mask is an analysis option: a parameter file is already fitted.
-    let p =
-        with(&regions.replace("  from = paving\n  mask = setts\n", "  params = \"granite.toml\"\n  mask = setts\n"));
-    p.refuses("`mask` is an analysis option", "mask = setts");
-    let p = with(&regions.replace("  from = paving\n  mask = joints\n", "  params = \"granite.toml\"\n"));
-    p.refuses("`mask_spectrum` is an analysis option", "mask_spectrum = masked");
-    // Hardly any pixel is that blue: no 16² square for the setts' spectrum (the joints, measured
-    // by the masked periodogram, still fit); the masked periodogram needs a mask.
-    let p = with(&regions.replace("  threshold = 0.42\n", "  threshold = 0.9\n"));
-    p.refuses("no 16 x 16 square", "mask = setts");
-    let p = with(&regions.replace("  mask = joints\n", ""));
-    p.refuses("applies only to a fit with a `mask`", "mask_spectrum = masked");
-    // An orientation field is no mask.
-    let p = with(&regions.replace("channel = b)", "channel = vector)"));
-    p.refuses("must be scalar", "mask = setts");
+    // Each edit of the scene, the message and the span it is refused at.
+    for (from, to, message, span) in [
+        // A mask is an analysis option: a parameter file is already fitted.
+        (
+            "  from = paving\n  mask = setts\n",
+            "  params = \"granite.toml\"\n  mask = setts\n",
+            "`mask` is an analysis option",
+            "mask = setts",
+        ),
+        (
+            "  from = paving\n  mask = joints\n",
+            "  params = \"granite.toml\"\n",
+            "`mask_spectrum` is an analysis option",
+            "mask_spectrum = masked",
+        ),
+        // Hardly any pixel is that blue: no 16² square for the setts' spectrum (the joints,
+        // measured by the masked periodogram, still fit).
+        ("  threshold = 0.42\n", "  threshold = 0.9\n", "no 16 x 16 square", "mask = setts"),
+        // The masked periodogram needs a mask.
+        ("  mask = joints\n", "", "applies only to a fit with a `mask`", "mask_spectrum = masked"),
+        // An orientation field is no mask.
+        ("channel = b)", "channel = vector)", "must be scalar", "mask = setts"),
+    ] {
+        with(&regions.replace(from, to)).refuses(message, span);
+    }
 }

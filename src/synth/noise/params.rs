@@ -233,7 +233,7 @@ pub fn fit_masked(img: &Image, mask: Option<&[bool]>, opts: &FitOptions) -> Resu
                             m.then(|| next - 1)
                         })
                         .collect();
-                    let (crop, n) = spectrum::pow2_crop_with(&index, w, h)?;
+                    let (crop, n) = spectrum::pow2_crop(&index, w, h)?;
                     let inside = crop.iter().flatten().count();
                     let least = spectrum::MIN_SIDE * spectrum::MIN_SIDE;
                     if inside < least {

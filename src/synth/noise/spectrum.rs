@@ -542,12 +542,8 @@ pub fn anisotropy(plane: &[f64], n: usize) -> Result<f64, SpectrumError> {
 }
 
 /// Centred crop of a W×H plane to the largest power-of-two square (proposal 4); errors under 16×16.
-pub fn pow2_crop(plane: &[f64], width: usize, height: usize) -> Result<(Vec<f64>, usize), SpectrumError> {
-    pow2_crop_with(plane, width, height)
-}
-
-/// [`pow2_crop`] of a plane of anything.
-pub fn pow2_crop_with<T: Copy>(plane: &[T], width: usize, height: usize) -> Result<(Vec<T>, usize), SpectrumError> {
+/// Generic over the pixel so that a plane of region indices crops alike.
+pub fn pow2_crop<T: Copy>(plane: &[T], width: usize, height: usize) -> Result<(Vec<T>, usize), SpectrumError> {
     if width < MIN_SIDE || height < MIN_SIDE {
         return Err(SpectrumError::TooSmall { width, height });
     }
@@ -1249,7 +1245,7 @@ mod tests {
         assert_eq!(pow2_crop(&vec![0.0; 15 * 40], 15, 40), Err(SpectrumError::TooSmall { width: 15, height: 40 }));
         assert_eq!(pow2_crop(&vec![0.0; 40 * 15], 40, 15), Err(SpectrumError::TooSmall { width: 40, height: 15 }));
         assert!(matches!(pow2_crop(&[0.0; 10], 16, 16), Err(SpectrumError::SizeMismatch { .. })));
-        assert!(matches!(pow2_crop(&[], usize::MAX, usize::MAX), Err(SpectrumError::SizeMismatch { .. })));
+        assert!(matches!(pow2_crop::<f64>(&[], usize::MAX, usize::MAX), Err(SpectrumError::SizeMismatch { .. })));
         assert_eq!(pow2_crop(&vec![1.0; 16 * 16], 16, 16).unwrap().1, 16);
     }
 

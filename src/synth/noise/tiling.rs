@@ -445,21 +445,19 @@ impl Prepared {
     fn bilinear_at(&self, x: f64, rows: TexelRows) -> Vec4 {
         let w = self.width;
         let (x0, fx) = self.wrap(x, w);
-        let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
+        self.bilinear_texels(x0, fx as f32, rows)
+    }
+
+    /// The bilinear blend of texel columns `x0` and the next (weight `fx` on it) of `rows`.
+    #[inline(always)]
+    fn bilinear_texels(&self, x0: usize, fx: f32, rows: TexelRows) -> Vec4 {
         let t = &self.texels;
-        let fx = fx as f32;
         // On texel centres (one output pixel per texel, whole-texel offsets) the lookup is one
         // texel: the same value as the blend below, whose other terms are then weighted 0.
         if fx == 0.0 && rows.weight == 0.0 {
             return t[rows.first + x0];
         }
-        self.bilinear_texels(x0, x1, fx, rows)
-    }
-
-    /// The bilinear blend of texel columns `x0`, `x1` (weight `fx` on the second) of `rows`.
-    #[inline(always)]
-    fn bilinear_texels(&self, x0: usize, x1: usize, fx: f32, rows: TexelRows) -> Vec4 {
-        let t = &self.texels;
+        let x1 = if x0 + 1 == self.width { 0 } else { x0 + 1 };
         let lerp = |a: Vec4, b: Vec4, f: f32| a + (b - a) * f;
         let top = lerp(t[rows.first + x0], t[rows.first + x1], fx);
         let bottom = lerp(t[rows.second + x0], t[rows.second + x1], fx);
@@ -961,13 +959,7 @@ impl Row<'_> {
                     let w = c.weights;
                     let mut acc = Vec4::ZERO;
                     for k in 0..3 {
-                        let (x0, fx, r) = (index[k][i], fraction[k][i], rows[k]);
-                        // On texel centres, one texel (see `bilinear_at`).
-                        let sample = if fx == 0.0 && r.weight == 0.0 {
-                            prep.texels[r.first + x0]
-                        } else {
-                            prep.bilinear_texels(x0, if x0 + 1 == width { 0 } else { x0 + 1 }, fx, r)
-                        };
+                        let sample = prep.bilinear_texels(index[k][i], fraction[k][i], rows[k]);
                         acc += (sample - half) * w[k];
                     }
                     let norm = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
