@@ -14,6 +14,7 @@ mod procedural;
 mod representation;
 mod sample;
 mod scene;
+mod shader;
 mod structure;
 mod surface;
 
@@ -64,6 +65,7 @@ pub static KINDS: &[&dyn Kind] = &[
     &structure::Structure,
     &appearance::Appearance,
     &procedural::ProceduralKind,
+    &shader::ShaderKind,
     &layer::Layer,
     &library::Library,
     &model::ModelKind,

@@ -13,6 +13,7 @@ pub mod relief;
 pub mod relight;
 pub mod render;
 pub mod rng;
+pub mod shader;
 pub mod structure;
 pub mod surface;
 

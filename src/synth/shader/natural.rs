@@ -1,0 +1,445 @@
+//! The shaders built on noise [references: bourque §5]: SH5 Musgrave's cyclone, SH6 Gritz's
+//! eyeball veins, SH7 clouds, SH8 a star field and SH13 Gritz's hexagonal tiles. Their noise is
+//! seeded, so a target from another seed is matched by similarity, not by equal parameters.
+
+use super::params::{Args, ParamDef as P};
+use super::prims::{
+    cell_random, coverage, fbm, floor, mix, octave_weight, plastic, scale, smoothstep, snoise, turbulence, vl_noise,
+};
+use super::{Pattern, ShaderDef};
+
+pub static CYCLONE: ShaderDef = ShaderDef {
+    name: "cyclone",
+    doc: "Musgrave's KMCyclone (the thesis's App. B): clouds of domain-distorted fBm swirled about a calm eye at the centre of the unit square. On the thesis's plane the swirl was a constant turn (|normalize(P).xy| = 1 at z = 0); here the radius is measured from the square's centre, so `max_radius` and `twist` shape a real vortex.",
+    params: &[
+        P::float("Ka", 0.0, 1.0, &[0.5], "Ambient coefficient.").fixed(),
+        P::float("Kd", 0.0, 1.0, &[0.75], "Diffuse coefficient.").fixed(),
+        P::float("max_radius", 0.05, 2.0, &[1.0], "Radius of the vortex, in texture units; outside it the clouds thin out."),
+        P::float("twist", -1.0, 1.0, &[0.5], "Turns of the swirl from the rim to the eye."),
+        P::float("scale", 0.0, 2.0, &[0.7], "Amplitude of the cloud noise."),
+        P::float("offset", 0.0, 1.0, &[0.5], "Cloud density added everywhere."),
+        P::float("omega", 0.0, 1.0, &[0.675], "Gain from one octave to the next."),
+        P::float("octaves", 1.0, 9.0, &[4.0], "Octaves of noise; a fraction weights the last one."),
+        P::float("frequency", 1.0, 16.0, &[4.0], "Noise lattice cells per texture unit in the first octave (tessera's: the shader space of the thesis's plane)."),
+        P::colour("colour", &[1.0, 1.0, 1.0], "The clouds (the surface colour Cs)."),
+        P::colour("background", &[0.0, 0.0, 0.0], "Behind them."),
+    ],
+    stochastic: true,
+    version: 1,
+    build: |v, seed| {
+        let mut a = Args::new(v);
+        let (ka, kd) = (a.f(), a.f());
+        Box::new(Cyclone {
+            max_radius: a.f(),
+            twist: a.f(),
+            scale: a.f(),
+            offset: a.f(),
+            omega: a.f(),
+            octaves: a.f(),
+            frequency: a.f(),
+            colour: plastic(a.c(), ka, kd, 0.0, [0.0; 3]),
+            background: a.c(),
+            seed,
+        })
+    },
+};
+
+struct Cyclone {
+    max_radius: f64,
+    twist: f64,
+    scale: f64,
+    offset: f64,
+    omega: f64,
+    octaves: f64,
+    frequency: f64,
+    colour: [f32; 3],
+    background: [f32; 3],
+    seed: u32,
+}
+
+impl Pattern for Cyclone {
+    fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3] {
+        let (x, y) = (u - 0.5, v - 0.5);
+        let radius = x.hypot(y);
+        let r = self.max_radius;
+        // The swirl: a turn that grows toward the eye; the rim and the eye fade out smoothly.
+        let dist = (r - radius).max(0.0).powi(3);
+        let angle = std::f64::consts::PI + self.twist * std::f64::consts::TAU * (r - dist) / r;
+        let (sin, cos) = angle.sin_cos();
+        let (px, py) = (cos * x - sin * y, sin * x + cos * y);
+        let weight = smoothstep(0.05 * r, 0.1 * r, radius) * (1.0 - smoothstep(0.9 * r, r, radius));
+        if weight == 0.0 {
+            return self.background;
+        }
+        let (px, py) = (px * self.frequency, py * self.frequency);
+        let (whole, frac) = (floor(self.octaves) as usize, self.octaves - floor(self.octaves));
+        let mut sum = 0.0;
+        let mut o = 1.0;
+        let mut l = 1.0;
+        for i in 0..=whole {
+            let w = if i < whole { 1.0 } else { frac };
+            let fade = octave_weight(l * self.frequency, fw);
+            // (The thesis also stopped below an octave weight of 0.001, a jump in `omega`.)
+            if w == 0.0 || fade == 0.0 {
+                break;
+            }
+            sum += w * fade * o * vl_noise(px * l, py * l, self.seed.wrapping_add(i as u32));
+            l *= 2.0;
+            o *= self.omega;
+        }
+        let value = (weight * (self.offset + self.scale * sum)).abs();
+        mix(self.background, self.colour, value.min(1.0))
+    }
+}
+
+pub static EYEBALL: ShaderDef = ShaderDef {
+    name: "eyeball",
+    doc: "Gritz's LGEyeBall (the thesis's App. C) on the plane: an iris and pupil at the centre of the unit square (the sphere's pole), and a white of ridged-noise blood veins. With `irissize` and `pupilsize` 0 and black blood it is a vein network on white, which matched a Brodatz texture in the thesis (Fig. 4-18(d)).",
+    params: &[
+        P::float("Ka", 0.0, 1.0, &[0.75], "Ambient coefficient.").fixed(),
+        P::float("Kd", 0.0, 1.0, &[0.75], "Diffuse coefficient.").fixed(),
+        P::float("Ks", 0.0, 1.0, &[0.4], "Specular coefficient.").fixed(),
+        P::float("roughness", 0.01, 1.0, &[0.1], "Specular roughness (no effect under the fixed frontal light; kept for the thesis's parameter list).").fixed(),
+        P::colour("specularcolor", &[1.0, 1.0, 1.0], "Highlight colour."),
+        P::colour("iriscolor", &[0.135, 0.084, 0.372], "Iris fibres."),
+        P::colour("irisoutercolor", &[0.404, 0.344, 0.683], "Iris rim."),
+        P::colour("irisinnercolor", &[0.065, 0.041, 0.179], "Iris near the pupil."),
+        P::colour("eyeballcolor", &[1.0, 1.0, 1.0], "The white of the eye."),
+        P::colour("bloodcolor", &[0.8, 0.05, 0.05], "Veins."),
+        P::colour("pupilcolor", &[0.0, 0.0, 0.0], "Pupil."),
+        P::float("pupilsize", 0.0, 0.5, &[0.05], "Pupil radius, in texture units."),
+        P::float("irissize", 0.0, 0.5, &[0.12], "Iris radius, in texture units."),
+        P::float("bloodshot", 0.0, 1.0, &[1.0], "How strongly veins show."),
+        P::float("veinfreq", 1.0, 16.0, &[8.0], "Vein noise lattice cells per texture unit in the first level."),
+        P::float("veinlevel", 1.0, 10.0, &[4.0], "Levels of veins, each twice as fine; a fraction weights the last."),
+        P::int("index", 0, 1000, &[0.0], "Which vein network (offsets the noise)."),
+    ],
+    stochastic: true,
+    version: 1,
+    build: |v, seed| {
+        let mut a = Args::new(v);
+        let (ka, kd, ks, _roughness) = (a.f(), a.f(), a.f(), a.f());
+        Box::new(Eyeball {
+            ka,
+            kd,
+            ks,
+            specular: a.c(),
+            iris: a.c(),
+            iris_outer: a.c(),
+            iris_inner: a.c(),
+            ball: a.c(),
+            blood: a.c(),
+            pupil: a.c(),
+            pupil_size: a.f(),
+            iris_size: a.f(),
+            bloodshot: a.f(),
+            vein_freq: a.f(),
+            vein_level: a.f(),
+            seed: seed.wrapping_add((a.f() as u32).wrapping_mul(0x9e37_79b9)),
+        })
+    },
+};
+
+struct Eyeball {
+    ka: f64,
+    kd: f64,
+    ks: f64,
+    specular: [f32; 3],
+    iris: [f32; 3],
+    iris_outer: [f32; 3],
+    iris_inner: [f32; 3],
+    ball: [f32; 3],
+    blood: [f32; 3],
+    pupil: [f32; 3],
+    pupil_size: f64,
+    iris_size: f64,
+    bloodshot: f64,
+    vein_freq: f64,
+    vein_level: f64,
+    seed: u32,
+}
+
+impl Pattern for Eyeball {
+    fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3] {
+        // `tt`, the distance from the pole, is the distance from the square's centre.
+        let tt = (u - 0.5).hypot(v - 0.5);
+        let twidth = fw.max(1e-4);
+        let iris_stat = smoothstep(self.iris_size, self.iris_size + twidth, tt);
+        let pupil_stat = smoothstep(self.pupil_size, self.pupil_size + twidth, tt);
+        let bloody = self.bloodshot
+            * if self.iris_size > 0.0 { smoothstep(-self.iris_size, 2.5 * self.iris_size, tt) } else { 1.0 };
+        // Veins: ridged noise, each level twice as fine, shown where the levels above were
+        // ridges too (Gritz's loop, with its `turb > 0.1` early exit).
+        let mut displayed = 0.0;
+        let mut turb = 1.0;
+        let mut freq = self.vein_freq;
+        let (whole, frac) = (floor(self.vein_level) as usize, self.vein_level - floor(self.vein_level));
+        for i in 0..=whole {
+            let w = if i < whole { 1.0 } else { frac };
+            let fade = octave_weight(freq, fw);
+            if w == 0.0 || fade == 0.0 || turb <= 0.1 {
+                break;
+            }
+            let s = self.seed.wrapping_add(i as u32);
+            let new_turb = 1.0 - snoise(u * freq, v * freq + 20.0 * freq, s).abs();
+            // A ridge thinner than a pixel is drawn a pixel wide and as much fainter (the same
+            // integral over |noise|), so renders at any resolution agree after filtering.
+            let width = (RIDGE_WIDTH_PER_PIXEL * freq * fw).max(0.15);
+            let new_disp = (0.15 / width) * smoothstep(1.0 - width, 1.0, new_turb).powi(10);
+            displayed += w * fade * (1.0 - displayed) * new_disp * smoothstep(0.1, 0.85, turb * turb);
+            turb *= new_turb;
+            freq *= 2.0;
+        }
+        let ball = mix(self.ball, self.blood, smoothstep(0.0, 0.75, bloody * displayed));
+        // The iris: fibres of turbulence starting at frequency 30, between its inner and outer
+        // colours.
+        let fibres = turbulence(u * 30.0, v * 30.0, 4.0, 0.5, fw, self.seed ^ 0x5bd1_e995);
+        let ring = mix(self.iris_inner, self.iris_outer, smoothstep(self.pupil_size, self.iris_size.max(1e-9), tt));
+        let iris = mix(ring, self.iris, smoothstep(0.1, 0.6, fibres));
+        let ct = mix(self.pupil, mix(iris, ball, iris_stat), pupil_stat);
+        plastic(ct, self.ka, self.kd, self.ks, self.specular)
+    }
+}
+
+/// How far |noise| moves across one pixel, per lattice cell of the pixel's width (gradient
+/// noise's gradient is about this steep).
+const RIDGE_WIDTH_PER_PIXEL: f64 = 1.5;
+
+pub static CLOUDS: ShaderDef = ShaderDef {
+    name: "clouds",
+    doc: "A day sky (the thesis's cloud shader, Fig. 4-19): fBm clouds over a blue sky, with their cover and softness.",
+    params: &[
+        P::float("frequency", 0.5, 16.0, &[3.0], "Noise lattice cells per texture unit in the first octave."),
+        P::float("octaves", 1.0, 9.0, &[6.0], "Octaves of noise; a fraction weights the last one."),
+        P::float("gain", 0.1, 0.9, &[0.5], "Amplitude ratio from one octave to the next."),
+        P::float("cover", 0.0, 1.0, &[0.5], "How much of the sky is cloud."),
+        P::float("softness", 0.01, 1.0, &[0.4], "Width of the cloud edges, in noise units."),
+        P::colour("sky", &[0.25, 0.45, 0.85], "Clear sky."),
+        P::colour("cloud", &[1.0, 1.0, 1.0], "Clouds."),
+    ],
+    stochastic: true,
+    version: 1,
+    build: |v, seed| {
+        let mut a = Args::new(v);
+        Box::new(Clouds {
+            frequency: a.f(),
+            octaves: a.f(),
+            gain: a.f(),
+            cover: a.f(),
+            softness: a.f(),
+            sky: a.c(),
+            cloud: a.c(),
+            seed,
+        })
+    },
+};
+
+struct Clouds {
+    frequency: f64,
+    octaves: f64,
+    gain: f64,
+    cover: f64,
+    softness: f64,
+    sky: [f32; 3],
+    cloud: [f32; 3],
+    seed: u32,
+}
+
+impl Pattern for Clouds {
+    fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3] {
+        let f = self.frequency;
+        let n = fbm(u * f, v * f, self.octaves, self.gain, fw * f, self.seed);
+        // fBm is centred on 0 with a spread near 0.5: cover 0.5 clouds half the sky.
+        let edge = 0.5 - self.cover;
+        let density = smoothstep(edge - 0.5 * self.softness, edge + 0.5 * self.softness, n);
+        mix(self.sky, self.cloud, density)
+    }
+}
+
+pub static STARFIELD: ShaderDef = ShaderDef {
+    name: "starfield",
+    doc: "A night sky (the thesis's star-field shader, Fig. 4-19): stars at random places in a lattice of cells, each cell holding at most one, of random brightness. A star smaller than a pixel keeps its energy, spread over the pixel.",
+    params: &[
+        P::float("density", 2.0, 64.0, &[16.0], "Cells per texture unit (at most one star each)."),
+        P::float("probability", 0.0, 1.0, &[0.5], "Chance that a cell holds a star."),
+        P::float("radius", 0.0005, 0.02, &[0.004], "Star radius, in texture units."),
+        P::float("twinkle", 0.0, 1.0, &[0.5], "Spread of star brightness (0: all equal)."),
+        P::colour("sky", &[0.01, 0.01, 0.04], "The night."),
+        P::colour("star", &[1.0, 0.97, 0.85], "The stars."),
+    ],
+    stochastic: true,
+    version: 1,
+    build: |v, seed| {
+        let mut a = Args::new(v);
+        Box::new(Starfield {
+            density: a.f(),
+            probability: a.f(),
+            radius: a.f(),
+            twinkle: a.f(),
+            sky: a.c(),
+            star: a.c(),
+            seed,
+        })
+    },
+};
+
+struct Starfield {
+    density: f64,
+    probability: f64,
+    radius: f64,
+    twinkle: f64,
+    sky: [f32; 3],
+    star: [f32; 3],
+    seed: u32,
+}
+
+impl Starfield {
+    /// The light at `(x, y)` (cell units) of the star of cell `(i, j)`, drawn `drawn` wide.
+    fn star_light(&self, i: i64, j: i64, x: f64, y: f64, drawn: f64, w: f64) -> f64 {
+        // A star fades in as `probability` passes its cell's draw, so the image is continuous
+        // in `probability` (local search needs that).
+        let presence = ((self.probability - cell_random(i, j, self.seed)) / 0.02).clamp(0.0, 1.0);
+        if presence == 0.0 {
+            return 0.0;
+        }
+        let sx = i as f64 + cell_random(i, j, self.seed ^ 0x85eb_ca6b);
+        let sy = j as f64 + cell_random(i, j, self.seed ^ 0xc2b2_ae35);
+        let brightness = presence * (1.0 - self.twinkle * cell_random(i, j, self.seed ^ 0x27d4_eb2f));
+        brightness * coverage((x - sx).hypot(y - sy) - drawn, w)
+    }
+}
+
+impl Pattern for Starfield {
+    fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3] {
+        let (x, y) = (u * self.density, v * self.density);
+        let (cx, cy) = (floor(x) as i64, floor(y) as i64);
+        // In cell units; a star drawn bigger than its true size (under a pixel) is dimmed by
+        // the ratio of areas, so its energy does not depend on the resolution.
+        let r = self.radius * self.density;
+        let w = fw * self.density;
+        let drawn = r.max(0.5 * w);
+        let energy = (r / drawn).powi(2);
+        // Past a few cells per pixel the stars are a haze: their expected light per cell
+        // (presence × brightness × disc area) stands in, blended in from 2 to 4 cells a pixel
+        // so the image stays continuous in `density`, and the cells visited stay bounded.
+        let haze = smoothstep(2.0, 4.0, w);
+        let expected = self.probability * (1.0 - 0.5 * self.twinkle) * std::f64::consts::PI * r * r;
+        let mut light: f64 = 0.0;
+        if haze < 1.0 {
+            let reach = floor(drawn + w) as i64 + 1;
+            for j in cy - reach..=cy + reach {
+                for i in cx - reach..=cx + reach {
+                    light += self.star_light(i, j, x, y, drawn, w) * energy;
+                }
+            }
+        }
+        let light = light + haze * (expected - light);
+        mix(self.sky, self.star, light.min(1.0))
+    }
+}
+
+pub static HEXTILE: ShaderDef = ShaderDef {
+    name: "hextile",
+    doc: "Gritz's hexagonal tiles (the thesis's parameter view, Fig. A-3): hexagons of one colour with per-tile variation, mortar between them, stains and scuffs of noise.",
+    params: &[
+        P::float("Ka", 0.0, 1.0, &[0.5], "Ambient coefficient.").fixed(),
+        P::float("Kd", 0.0, 1.0, &[0.5], "Diffuse coefficient.").fixed(),
+        P::float("Ks", 0.0, 1.0, &[0.2], "Specular coefficient.").fixed(),
+        P::float("roughness", 0.01, 1.0, &[0.1], "Specular roughness (no effect under the fixed frontal light; kept for the thesis's parameter list).").fixed(),
+        P::colour("specularcolor", &[1.0, 1.0, 1.0], "Highlight colour."),
+        P::colour("tilecolor", &[0.55, 0.0, 0.0], "Tiles."),
+        P::colour("mortarcolor", &[0.5, 0.5, 0.5], "Mortar."),
+        P::float("tileradius", 0.02, 1.0, &[0.2], "Distance from a tile's centre to its corners, in texture units."),
+        P::float("mortarwidth", 0.0, 0.2, &[0.02], "Mortar between tiles, in texture units."),
+        P::float("tilevary", 0.0, 0.3, &[0.15], "Random brightness change per tile."),
+        P::float("scuffing", 0.0, 1.0, &[0.5], "How much of the tiles is scuffed."),
+        P::float("stains", 0.0, 1.0, &[0.4], "How dark the stains are."),
+        P::float("stainfrequency", 0.0, 5.0, &[2.0], "Stain noise cells per texture unit."),
+        P::float("scufffrequency", 0.0, 8.0, &[4.0], "Scuff noise cells per texture unit."),
+        P::colour("scuffcolor", &[0.05, 0.05, 0.05], "Scuffs."),
+    ],
+    stochastic: true,
+    version: 1,
+    build: |v, seed| {
+        let mut a = Args::new(v);
+        let (ka, kd, ks, _roughness) = (a.f(), a.f(), a.f(), a.f());
+        Box::new(Hextile {
+            ka,
+            kd,
+            ks,
+            specular: a.c(),
+            tile: a.c(),
+            mortar: a.c(),
+            radius: a.f(),
+            mortar_width: a.f(),
+            vary: a.f(),
+            scuffing: a.f(),
+            stains: a.f(),
+            stain_freq: a.f(),
+            scuff_freq: a.f(),
+            scuff: a.c(),
+            seed,
+        })
+    },
+};
+
+struct Hextile {
+    ka: f64,
+    kd: f64,
+    ks: f64,
+    specular: [f32; 3],
+    tile: [f32; 3],
+    mortar: [f32; 3],
+    radius: f64,
+    mortar_width: f64,
+    vary: f64,
+    scuffing: f64,
+    stains: f64,
+    stain_freq: f64,
+    scuff_freq: f64,
+    scuff: [f32; 3],
+    seed: u32,
+}
+
+const SQRT3: f64 = 1.732_050_807_568_877_2; // √3
+
+impl Hextile {
+    /// The tile holding `(x, y)` (axial coordinates of pointy-top hexagons of circumradius
+    /// `radius`) and the distance from the point to that tile's nearest edge.
+    fn cell(&self, x: f64, y: f64) -> ((i64, i64), f64) {
+        let r = self.radius;
+        let q = (SQRT3 / 3.0 * x - y / 3.0) / r;
+        let s = (2.0 / 3.0 * y) / r;
+        // Cube rounding.
+        let (cx, cz) = (q, s);
+        let cy = -cx - cz;
+        let (mut rx, ry, mut rz) = (floor(cx + 0.5), floor(cy + 0.5), floor(cz + 0.5));
+        let (dx, dy, dz) = ((rx - cx).abs(), (ry - cy).abs(), (rz - cz).abs());
+        if dx > dy && dx > dz {
+            rx = -ry - rz;
+        } else if dy <= dz {
+            rz = -rx - ry;
+        }
+        let centre = [r * SQRT3 * (rx + 0.5 * rz), r * 1.5 * rz];
+        let (px, py) = (x - centre[0], y - centre[1]);
+        // Pointy-top hexagons have edge normals at 0° and ±60°.
+        let reach = px.abs().max((0.5 * px + 0.5 * SQRT3 * py).abs()).max((0.5 * px - 0.5 * SQRT3 * py).abs());
+        ((rx as i64, rz as i64), 0.5 * SQRT3 * r - reach)
+    }
+}
+
+impl Pattern for Hextile {
+    fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3] {
+        let ((i, j), edge) = self.cell(u, v);
+        let in_tile = coverage(0.5 * self.mortar_width - edge, fw);
+        let mut tile = scale(self.tile, 1.0 + self.vary * (2.0 * cell_random(i, j, self.seed) - 1.0));
+        let sf = self.stain_freq;
+        let stain = fbm(u * sf + 13.1, v * sf + 7.7, 3.0, 0.5, fw * sf, self.seed ^ 0x1b87_3593);
+        tile = scale(tile, 1.0 - self.stains * smoothstep(0.0, 0.6, stain));
+        let cf = self.scuff_freq;
+        let scuffs = turbulence(u * cf, v * cf, 4.0, 0.5, fw * cf, self.seed ^ 0xcc9e_2d51);
+        tile = mix(tile, self.scuff, self.scuffing * smoothstep(0.35, 0.9, scuffs));
+        let ct = mix(self.mortar, tile, in_tile);
+        plastic(ct, self.ka, self.kd, self.ks, self.specular)
+    }
+}

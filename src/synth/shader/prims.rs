@@ -1,0 +1,233 @@
+//! The RenderMan-style building blocks the library's shaders are written with
+//! [references: bourque §5.3]: seeded gradient noise and its sums (fBm, turbulence, ridges,
+//! domain-distorted noise), smoothstep and mix, antialiased steps and pulse trains filtered
+//! over a pixel's footprint, and the fixed plastic lighting of the thesis's renders.
+//!
+//! Noise is two-dimensional: the shaders are evaluated on the plane z = 0 of shader space
+//! (the thesis's fixed setup), where three-dimensional noise would cost four times as much
+//! for the same kind of pattern. Lattice gradients come from a hash of (seed, cell), so each
+//! point is computed on its own, in any order, on any number of threads.
+
+use std::f64::consts::FRAC_1_SQRT_2;
+
+/// ⌊x⌋ for |x| < 2⁶³, inline: without SSE4.1 `f64::floor` is a call into libm, which cost a
+/// third of a simple shader's time.
+#[inline(always)]
+pub fn floor(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
+/// x − ⌊x⌋.
+#[inline(always)]
+pub fn fract(x: f64) -> f64 {
+    x - floor(x)
+}
+
+/// A 32-bit integer hash of a lattice cell and a seed (a multiply–xorshift finaliser).
+#[inline]
+pub fn hash(x: i64, y: i64, seed: u32) -> u32 {
+    let mut h = seed ^ (x as u32).wrapping_mul(0x27d4_eb2d) ^ (y as u32).wrapping_mul(0x1656_67b1);
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x2c1b_3c6d);
+    h ^= h >> 12;
+    h = h.wrapping_mul(0x297a_2d39);
+    h ^= h >> 15;
+    h
+}
+
+/// A uniform number in `[0, 1)` for a lattice cell.
+#[inline]
+pub fn cell_random(x: i64, y: i64, seed: u32) -> f64 {
+    hash(x, y, seed) as f64 / 4_294_967_296.0
+}
+
+/// Sixteen unit gradients, 22.5° apart.
+const GRADIENTS: [[f64; 2]; 16] = [
+    [1.0, 0.0],
+    [0.923_879_532_511_286_7, 0.382_683_432_365_089_8],
+    [FRAC_1_SQRT_2, FRAC_1_SQRT_2],
+    [0.382_683_432_365_089_8, 0.923_879_532_511_286_7],
+    [0.0, 1.0],
+    [-0.382_683_432_365_089_8, 0.923_879_532_511_286_7],
+    [-FRAC_1_SQRT_2, FRAC_1_SQRT_2],
+    [-0.923_879_532_511_286_7, 0.382_683_432_365_089_8],
+    [-1.0, 0.0],
+    [-0.923_879_532_511_286_7, -0.382_683_432_365_089_8],
+    [-FRAC_1_SQRT_2, -FRAC_1_SQRT_2],
+    [-0.382_683_432_365_089_8, -0.923_879_532_511_286_7],
+    [0.0, -1.0],
+    [0.382_683_432_365_089_8, -0.923_879_532_511_286_7],
+    [FRAC_1_SQRT_2, -FRAC_1_SQRT_2],
+    [0.923_879_532_511_286_7, -0.382_683_432_365_089_8],
+];
+
+/// Signed gradient noise (Perlin's, with a quintic fade) in about `[-1, 1]`, zero at lattice
+/// points, mean zero: RenderMan's `snoise` on the plane.
+#[inline]
+pub fn snoise(x: f64, y: f64, seed: u32) -> f64 {
+    let (fx, fy) = (floor(x), floor(y));
+    let (ix, iy) = (fx as i64, fy as i64);
+    let (dx, dy) = (x - fx, y - fy);
+    let dot = |cx: i64, cy: i64, ox: f64, oy: f64| {
+        let g = GRADIENTS[(hash(cx, cy, seed) >> 28) as usize];
+        g[0] * ox + g[1] * oy
+    };
+    let n00 = dot(ix, iy, dx, dy);
+    let n10 = dot(ix + 1, iy, dx - 1.0, dy);
+    let n01 = dot(ix, iy + 1, dx, dy - 1.0);
+    let n11 = dot(ix + 1, iy + 1, dx - 1.0, dy - 1.0);
+    let (sx, sy) = (fade(dx), fade(dy));
+    let a = n00 + sx * (n10 - n00);
+    let b = n01 + sx * (n11 - n01);
+    // 2-D gradient noise peaks at ±√2/2; scaled to span about [-1, 1].
+    std::f64::consts::SQRT_2 * (a + sy * (b - a))
+}
+
+#[inline]
+fn fade(t: f64) -> f64 {
+    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+}
+
+/// RenderMan's `noise`: gradient noise mapped to about `[0, 1]`, centred on 0.5.
+#[inline]
+pub fn noise(x: f64, y: f64, seed: u32) -> f64 {
+    0.5 + 0.5 * snoise(x, y, seed)
+}
+
+/// How much of an octave of lattice frequency `freq` survives at a pixel `fw` wide: 1 while
+/// a lattice cell spans four pixels or more, fading to 0 at two (the Nyquist limit), so a
+/// render at any resolution drops what it cannot show instead of aliasing it.
+#[inline]
+pub fn octave_weight(freq: f64, fw: f64) -> f64 {
+    1.0 - smoothstep(0.25, 0.5, freq * fw)
+}
+
+/// The octaves of a sum: `octaves` may be fractional, the last one weighted by the fraction
+/// (Musgrave's remainder), so the sum is continuous in it.
+#[inline]
+fn octave_count(octaves: f64) -> (usize, f64) {
+    let whole = octaves.floor().max(0.0);
+    (whole as usize, octaves - whole)
+}
+
+/// Fractional Brownian motion: Σ gainⁱ · snoise(2ⁱ·p), each octave faded by its footprint.
+pub fn fbm(x: f64, y: f64, octaves: f64, gain: f64, fw: f64, seed: u32) -> f64 {
+    sum_octaves(x, y, octaves, gain, fw, seed, snoise)
+}
+
+/// Turbulence: Σ gainⁱ · |snoise(2ⁱ·p)|.
+pub fn turbulence(x: f64, y: f64, octaves: f64, gain: f64, fw: f64, seed: u32) -> f64 {
+    sum_octaves(x, y, octaves, gain, fw, seed, |x, y, s| snoise(x, y, s).abs())
+}
+
+/// Domain-distorted ("variable lacunarity") noise: snoise of the point displaced by a vector
+/// noise, Musgrave's `VLNoise` at scale 1.
+#[inline]
+pub fn vl_noise(x: f64, y: f64, seed: u32) -> f64 {
+    let ox = snoise(x + 0.5, y + 0.5, seed ^ 0x9e37_79b9);
+    let oy = snoise(x - 3.7, y + 1.3, seed ^ 0x7f4a_7c15);
+    snoise(x + ox, y + oy, seed)
+}
+
+fn sum_octaves(x: f64, y: f64, octaves: f64, gain: f64, fw: f64, seed: u32, f: impl Fn(f64, f64, u32) -> f64) -> f64 {
+    let (whole, frac) = octave_count(octaves);
+    let mut sum = 0.0;
+    let mut amp = 1.0;
+    let mut freq = 1.0;
+    for i in 0..=whole {
+        let w = if i < whole { 1.0 } else { frac };
+        let fade = octave_weight(freq, fw);
+        if w == 0.0 || fade == 0.0 {
+            break;
+        }
+        // Each octave its own lattice: a different seed, so octaves do not line up at the origin.
+        let s = seed.wrapping_add((i as u32).wrapping_mul(0x68e3_1da4));
+        sum += w * fade * amp * f(x * freq, y * freq, s);
+        amp *= gain;
+        freq *= 2.0;
+    }
+    sum
+}
+
+#[inline]
+pub fn smoothstep(lo: f64, hi: f64, x: f64) -> f64 {
+    if x <= lo {
+        return 0.0;
+    }
+    if x >= hi {
+        return 1.0;
+    }
+    let t = (x - lo) / (hi - lo);
+    t * t * (3.0 - 2.0 * t)
+}
+
+#[inline]
+pub fn mix(a: [f32; 3], b: [f32; 3], t: f64) -> [f32; 3] {
+    let t = t as f32;
+    [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t, a[2] + (b[2] - a[2]) * t]
+}
+
+#[inline]
+pub fn scale(c: [f32; 3], k: f64) -> [f32; 3] {
+    let k = k as f32;
+    [c[0] * k, c[1] * k, c[2] * k]
+}
+
+/// The fraction of `[x − w/2, x + w/2]` inside `[a, b]`: a box-filtered interval, exact for a
+/// pixel `w` wide and continuous in `a`, `b` and `x`.
+#[inline]
+pub fn filtered_interval(x: f64, w: f64, a: f64, b: f64) -> f64 {
+    if b <= a {
+        return 0.0;
+    }
+    if w <= 0.0 {
+        return f64::from((a..b).contains(&x));
+    }
+    let lo = x - 0.5 * w;
+    let hi = x + 0.5 * w;
+    ((hi.clamp(a, b) - lo.clamp(a, b)) / w).clamp(0.0, 1.0)
+}
+
+/// The fraction of `[x − w/2, x + w/2]` covered by a pulse train of period 1 whose pulses fill
+/// `[a, b] + k` (with `0 ≤ a ≤ b ≤ 1`): Apodaca and Gritz's filtered pulse train, through the
+/// train's antiderivative.
+#[inline]
+pub fn filtered_pulse_train(x: f64, w: f64, a: f64, b: f64) -> f64 {
+    let width = b - a;
+    if width <= 0.0 {
+        return 0.0;
+    }
+    if w <= 0.0 {
+        let f = fract(x);
+        return f64::from(a <= f && f < b);
+    }
+    let integral = |t: f64| {
+        let f = floor(t);
+        f * width + (t - f).clamp(a, b) - a
+    };
+    ((integral(x + 0.5 * w) - integral(x - 0.5 * w)) / w).clamp(0.0, 1.0)
+}
+
+/// Coverage of a pixel `w` wide by the inside (`d < 0`) of a shape with signed distance `d`.
+#[inline]
+pub fn coverage(d: f64, w: f64) -> f64 {
+    if w <= 0.0 {
+        return f64::from(d < 0.0);
+    }
+    (0.5 - d / w).clamp(0.0, 1.0)
+}
+
+/// The thesis's fixed lighting on a plane [references: bourque §9]: ambient 0.2 and one
+/// distant light of intensity 0.8 along the normal, seen along the normal, so plastic shading
+/// is a constant scale of the surface colour plus a constant highlight.
+#[inline]
+pub fn plastic(ct: [f32; 3], ka: f64, kd: f64, ks: f64, specular: [f32; 3]) -> [f32; 3] {
+    let k = (ka * 0.2 + kd * 0.8) as f32;
+    let s = (ks * 0.8) as f32;
+    [ct[0] * k + s * specular[0], ct[1] * k + s * specular[1], ct[2] * k + s * specular[2]]
+}
