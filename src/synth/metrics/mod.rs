@@ -1,11 +1,14 @@
 //! Texture measures shared by tests, matching, library search and `tessera compare A B`
 //! (the two metrics of [references: bourque §4.5], with tessera's choices).
 //!
-//! Every function is a *distance*: 0 for identical inputs, larger for less similar ones.
+//! Every function but [`power_similarity`] (a similarity in `[0, 1]`, as matching uses it) is a
+//! *distance*: 0 for identical inputs, larger for less similar ones.
 //! Images are compared as given (no colour-space conversion); the grey-level measures use
 //! Rec. 709 luma of channels 0–2 (channel 0 of 1- and 2-channel images), and expect values
 //! roughly in `[0, 1]` where a fixed range matters (pyramid histograms, colour bins).
 //!
+//! - [`power_similarity`] of two [`power_feature`]s: Bourque's 2-D power-spectrum similarity
+//!   `S_F` (Eq. 4.10), orientation-sensitive, for square images of one size (matching).
 //! - [`spectrum_distance`]: radially averaged power spectrum, log-power difference weighted
 //!   towards low frequencies (size- and rotation-robust).
 //! - [`pyramid_distance`]: Laplacian-pyramid level histograms (Bourque eq. 4.11 as a
@@ -19,6 +22,7 @@
 mod histogram;
 mod luma;
 mod patches;
+mod power;
 mod pyramid;
 mod spectrum;
 
@@ -28,6 +32,9 @@ use crate::raster::Image;
 
 pub use histogram::{colour_distance, colour_histogram, HistogramParams};
 pub use patches::{nearest_patch_distance, patch_similarity, PatchParams, PatchSimilarity};
+pub use power::{
+    power_feature, power_similarity, Calibration, PowerError, PowerFeature, PowerParams, MIN_SIDE as POWER_MIN_SIDE,
+};
 pub use pyramid::{laplacian_pyramid, pyramid_distance, reconstruct, PyramidLevel, PyramidParams};
 pub use spectrum::{radial_power_spectrum, spectrum_distance, SpectrumParams};
 

@@ -159,3 +159,138 @@ fn patch_search_speed_512_vs_256() {
     // Generous bound (shared CI machine); the measured time is reported in the docs.
     assert!(dt < 20.0, "{dt}");
 }
+
+/// Renders of the shader library, the data of Bourque's metric checks.
+mod power_spectrum {
+    use super::super::{power_feature, power_similarity, pyramid_distance, Calibration, PowerParams, PyramidParams};
+    use crate::raster::Image;
+    use crate::synth::rng::Rng;
+    use crate::synth::shader::{render_square, shader, LIBRARY};
+
+    fn sim(a: &Image, b: &Image, window: bool) -> f64 {
+        let p = PowerParams { window, ..PowerParams::default() };
+        power_similarity(&power_feature(a, &p).unwrap(), &power_feature(b, &p).unwrap()).unwrap()
+    }
+
+    fn with(name: &str, changes: &[(&str, f64)]) -> Vec<f64> {
+        let def = shader(name).unwrap();
+        let mut v = def.defaults();
+        let at = crate::synth::shader::params::offsets(def.params);
+        for (p, x) in changes {
+            v[at[def.param(p).unwrap()]] = *x;
+        }
+        v
+    }
+
+    fn shifted(img: &Image, dx: usize, dy: usize) -> Image {
+        let (w, h) = (img.width, img.height);
+        Image::from_fn(w, h, img.channels, |x, y, c| img.get((x + dx) % w, (y + dy) % h, c))
+    }
+
+    #[test]
+    fn power_similarity_is_one_on_itself_symmetric_and_bounded() {
+        // F6: identity, symmetry and bounds over 1000 random pairs of library renders.
+        let mut rng = Rng::new(4);
+        let renders: Vec<Image> = (0..60)
+            .map(|i| {
+                let def = LIBRARY[i % LIBRARY.len()];
+                let v: Vec<f64> = def
+                    .params
+                    .iter()
+                    .flat_map(|p| {
+                        let (lo, hi) = p.kind.bounds();
+                        let int = matches!(p.kind, crate::synth::shader::ParamKind::Int { .. });
+                        (0..p.kind.width())
+                            .map(|_| {
+                                let x = lo + (hi - lo) * rng.next_f64();
+                                if int {
+                                    x.round()
+                                } else {
+                                    x
+                                }
+                            })
+                            .collect::<Vec<_>>()
+                    })
+                    .collect();
+                render_square(def, &v, i as u64, 64).unwrap()
+            })
+            .collect();
+        let p = PowerParams::default();
+        let features: Vec<_> = renders.iter().map(|r| power_feature(r, &p).unwrap()).collect();
+        for f in &features {
+            assert_eq!(power_similarity(f, f), Some(1.0));
+        }
+        for _ in 0..1000 {
+            let (i, j) = (rng.below(60), rng.below(60));
+            let s = power_similarity(&features[i], &features[j]).unwrap();
+            assert!((0.0..=1.0).contains(&s));
+            assert_eq!(Some(s), power_similarity(&features[j], &features[i]));
+        }
+        // Features of different sizes or options do not compare.
+        let small = power_feature(&render_square(LIBRARY[0], &LIBRARY[0].defaults(), 0, 32).unwrap(), &p).unwrap();
+        assert_eq!(power_similarity(&features[0], &small), None);
+        assert!(power_feature(&Image::new(8, 8, 3), &p).is_err());
+        assert!(power_feature(&Image::new(32, 16, 3), &p).is_err());
+    }
+
+    #[test]
+    fn power_similarity_ignores_shifts_but_sees_rotation_and_ignores_inversion() {
+        // F6: a periodic weave shifted circularly scores ≥ 0.999 unwindowed, ≥ 0.98 windowed;
+        // turned by 90° it scores below a one-pixel shift. F7: the inverted image scores ≥ 0.99.
+        let weave = render_square(
+            shader("weave").unwrap(),
+            &with("weave", &[("frequency", 4.0), ("vertical", 0.3), ("horizontal", 0.7)]),
+            0,
+            128,
+        )
+        .unwrap();
+        let moved = shifted(&weave, 17, 5);
+        assert!(sim(&weave, &moved, false) >= 0.999, "{}", sim(&weave, &moved, false));
+        assert!(sim(&weave, &moved, true) >= 0.98, "{}", sim(&weave, &moved, true));
+        let turned = Image::from_fn(128, 128, 3, |x, y, c| weave.get(y, 127 - x, c));
+        let one = shifted(&weave, 1, 0);
+        assert!(
+            sim(&weave, &turned, true) < sim(&weave, &one, true),
+            "turned {} vs shifted {}",
+            sim(&weave, &turned, true),
+            sim(&weave, &one, true)
+        );
+        let clouds = render_square(shader("clouds").unwrap(), &shader("clouds").unwrap().defaults(), 3, 128).unwrap();
+        for img in [&weave, &clouds] {
+            let inverted = Image { data: img.data.iter().map(|v| 1.0 - v).collect(), ..img.clone() };
+            assert!(sim(img, &inverted, true) >= 0.99, "{}", sim(img, &inverted, true));
+        }
+    }
+
+    #[test]
+    fn similarity_falls_as_the_bar_moves_away() {
+        // F9: around ω₀ = 0.4 on the bar shader, the similarity to render(ω₀ + δ) does not
+        // increase as |δ| grows through 0.005, 0.01, 0.02, 0.04, on both sides, for S_F and for
+        // the pyramid metric as a similarity.
+        let bar = shader("bar").unwrap();
+        let at = |w: f64| render_square(bar, &with("bar", &[("width", w)]), 0, 256).unwrap();
+        let base = at(0.4);
+        for side in [-1.0, 1.0] {
+            let mut last = (1.0, 1.0);
+            for d in [0.005, 0.01, 0.02, 0.04] {
+                let other = at(0.4 + side * d);
+                let s = (sim(&base, &other, true), 1.0 - pyramid_distance(&base, &other, &PyramidParams::default()));
+                assert!(s.0 <= last.0 && s.1 <= last.1, "δ = {}: {s:?} after {last:?}", side * d);
+                last = s;
+            }
+            assert!(last.0 < 1.0 && last.1 < 1.0);
+        }
+    }
+
+    #[test]
+    fn calibration_puts_the_median_unrelated_pair_at_one_over_e() {
+        let mut rng = Rng::new(8);
+        let sims: Vec<f64> = (0..101).map(|_| 0.9 + 0.1 * rng.next_f64()).collect();
+        let c = Calibration::from_pairs(&sims).unwrap();
+        let mut cal: Vec<f64> = sims.iter().map(|&s| c.apply(s)).collect();
+        cal.sort_by(f64::total_cmp);
+        assert!((cal[50] - (-1.0f64).exp()).abs() < 1e-12);
+        assert_eq!(c.apply(1.0), 1.0);
+        assert_eq!(Calibration::from_pairs(&[1.0, 1.0]), None);
+    }
+}
