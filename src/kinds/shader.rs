@@ -43,18 +43,17 @@ fn call_spec(def: &'static ShaderDef) -> CallSpec {
                     (Ty::Number(Unit::Angle, Range { min, max }), format!("{} deg", number(p.default[0].to_degrees())))
                 }
                 ParamKind::Int { min, max } => (Ty::Int(min, max), format!("{}", p.default[0] as i64)),
-                ParamKind::Colour => (
-                    Ty::Numbers(Unit::Plain, Range { min: 0.0, max: 1.0 }),
-                    format!("[{}]", p.default.iter().map(|&c| number(c)).collect::<Vec<_>>().join(", ")),
-                ),
+                ParamKind::Colour => {
+                    (Ty::Colour, format!("[{}]", p.default.iter().map(|&c| number(c)).collect::<Vec<_>>().join(", ")))
+                }
             };
             let range = match p.kind {
                 ParamKind::Float { min, max } => format!("In [{min}, {max}]."),
                 ParamKind::Angle { min, max } => format!("In [{}, {}] deg.", min.to_degrees(), max.to_degrees()),
                 ParamKind::Int { min, max } => format!("A whole number in [{min}, {max}]."),
-                ParamKind::Colour => "An RGB colour `[r, g, b]`, each in [0, 1].".to_string(),
+                ParamKind::Colour => String::new(),
             };
-            let doc = leak(format!("{} {range}", p.doc));
+            let doc = leak(format!("{} {range}", p.doc).trim_end().to_string());
             PropSpec { name: p.name, ty, default: Default::Text(leak(default)), doc }
         })
         .collect::<Vec<_>>();
@@ -111,41 +110,27 @@ struct Render {
     region: [f64; 4],
 }
 
-/// The flat parameter vector of a checked call, or a diagnostic at the argument at fault (the
-/// schema has checked ranges and whole numbers; a colour's length is checked here).
-pub fn values(def: &ShaderDef, call: &Call, fallback: crate::lang::source::Span) -> Result<Vec<f64>, Diagnostic> {
+/// The flat parameter vector of a checked call (the schema has checked ranges, whole numbers
+/// and colours).
+pub fn values(def: &ShaderDef, call: &Call) -> Vec<f64> {
     let mut values = Vec::with_capacity(lib::params::flat_len(def.params));
     for p in def.params {
         match p.kind {
-            ParamKind::Colour => {
-                let rgb = call.args.numbers(p.name);
-                if rgb.len() != 3 {
-                    return Err(Diagnostic::error(format!(
-                        "`{}` is a colour: three numbers, not {}",
-                        p.name,
-                        rgb.len()
-                    ))
-                    .with_code("tessera::shader")
-                    .with_label(call.args.span(p.name).or(call.span).unwrap_or(fallback), "here")
-                    .with_help("write it `[r, g, b]`, each in [0, 1]"));
-                }
-                values.extend_from_slice(rgb);
-            }
+            ParamKind::Colour => values.extend_from_slice(call.args.numbers(p.name)),
             ParamKind::Int { .. } => values.push(call.args.int(p.name) as f64),
             _ => values.push(call.args.num(p.name)),
         }
     }
-    Ok(values)
+    values
 }
 
 pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Image>, Diagnostic> {
     let (w, h) = d.props.size("size");
     let (w, h) = (w as usize, h as usize);
     p.check_pixels(d, d.props.span("size"), (w, h), BYTES_PER_PIXEL)?;
-    let at = d.props.span("pattern").unwrap_or(d.name_span);
     let Some(Val::Call(call)) = d.props.get("pattern") else { unreachable!("the schema admits only calls") };
     let def = lib::shader(&call.name).expect("the schema admits only library shaders");
-    let values = values(def, call, at)?;
+    let values = values(def, call);
     let repeat = d.props.num("repeat");
     let [u0, v0] = d.props.vec2("origin");
     let region = [u0, v0, u0 + repeat, v0 + repeat * h as f64 / w as f64];

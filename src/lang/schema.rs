@@ -240,6 +240,8 @@ pub enum Ty {
         calls: &'static [CallSpec],
         refs: &'static [Value],
     },
+    /// An RGB colour: a vector of three numbers, each in `[0, 1]`.
+    Colour,
     /// A nested property block.
     Block(&'static [PropSpec]),
     /// A vector of constructor calls, e.g. a list of edits `[insert(...), delete(...)]`.
@@ -256,6 +258,7 @@ impl Ty {
             Ty::Size => "a size `W x H`".into(),
             Ty::Vec2(_) => "a vector `[x, y]`".into(),
             Ty::Numbers(..) => "a vector of numbers".into(),
+            Ty::Colour => "an RGB colour `[r, g, b]`, each in [0, 1]".into(),
             Ty::Points => "a list of points `[[x, y], ...]`".into(),
             Ty::Str => "a string".into(),
             Ty::Path => "a file path string".into(),

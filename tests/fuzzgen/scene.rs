@@ -322,6 +322,19 @@ fn typed(rng: &mut Rng, prop: &str, ty: &Ty, names: &Names, depth: usize) -> Str
             let v: Vec<String> = (0..n).map(|_| coord(rng, *unit)).collect();
             format!("[{}]", v.join(", "))
         }
+        Ty::Colour => {
+            let n = if rng.chance(1.0 - 0.05 * names.noise) { 3 } else { rng.below(5) };
+            let v: Vec<String> = (0..n)
+                .map(|_| {
+                    if names.noise > 0.0 && rng.chance(0.1) {
+                        coord(rng, Unit::Plain)
+                    } else {
+                        format!("{:.3}", rng.unit())
+                    }
+                })
+                .collect();
+            format!("[{}]", v.join(", "))
+        }
         Ty::Points => {
             let n = if rng.chance(0.8) { 3 + rng.below(5) } else { rng.below(3) };
             let v: Vec<String> =

@@ -177,6 +177,17 @@ impl Checker<'_> {
                 }
                 self.numbers(items, *unit, crate::lang::schema::ANY).map(Val::Numbers)
             }
+            (Ty::Colour, ValueKind::Vector(items)) => {
+                if items.len() != 3 {
+                    self.errors.push(
+                        Diagnostic::error(format!("a colour is three numbers `[r, g, b]`, not {}", items.len()))
+                            .with_code("tessera::type")
+                            .with_label(v.span, "expected `[r, g, b]`"),
+                    );
+                    return None;
+                }
+                self.numbers(items, Unit::Plain, crate::lang::schema::UNIT).map(Val::Numbers)
+            }
             (Ty::Numbers(unit, range), ValueKind::Vector(items)) => {
                 self.numbers(items, *unit, *range).map(Val::Numbers)
             }

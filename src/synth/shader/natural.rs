@@ -115,7 +115,7 @@ pub static EYEBALL: ShaderDef = ShaderDef {
         P::int("index", 0, 1000, &[0.0], "Which vein network (offsets the noise)."),
     ],
     stochastic: true,
-    version: 1,
+    version: 2,
     build: |v, seed| {
         let mut a = Args::new(v);
         let (ka, kd, ks, _roughness) = (a.f(), a.f(), a.f(), a.f());
@@ -191,11 +191,15 @@ impl Pattern for Eyeball {
             freq *= 2.0;
         }
         let ball = mix(self.ball, self.blood, smoothstep(0.0, 0.75, bloody * displayed));
-        // The iris: fibres of turbulence starting at frequency 30, between its inner and outer
-        // colours.
-        let fibres = turbulence(u * 30.0, v * 30.0, 4.0, 0.5, fw, self.seed ^ 0x5bd1_e995);
-        let ring = mix(self.iris_inner, self.iris_outer, smoothstep(self.pupil_size, self.iris_size.max(1e-9), tt));
-        let iris = mix(ring, self.iris, smoothstep(0.1, 0.6, fibres));
+        // The iris (where it shows): fibres of turbulence starting at frequency 30, between its
+        // inner and outer colours.
+        let iris = if iris_stat < 1.0 {
+            let fibres = turbulence(u * 30.0, v * 30.0, 4.0, 0.5, fw, self.seed ^ 0x5bd1_e995);
+            let ring = mix(self.iris_inner, self.iris_outer, smoothstep(self.pupil_size, self.iris_size.max(1e-9), tt));
+            mix(ring, self.iris, smoothstep(0.1, 0.6, fibres))
+        } else {
+            ball
+        };
         let ct = mix(self.pupil, mix(iris, ball, iris_stat), pupil_stat);
         plastic(ct, self.ka, self.kd, self.ks, self.specular)
     }
@@ -312,7 +316,6 @@ impl Starfield {
 impl Pattern for Starfield {
     fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3] {
         let (x, y) = (u * self.density, v * self.density);
-        let (cx, cy) = (floor(x) as i64, floor(y) as i64);
         // In cell units; a star drawn bigger than its true size (under a pixel) is dimmed by
         // the ratio of areas, so its energy does not depend on the resolution.
         let r = self.radius * self.density;
@@ -326,9 +329,13 @@ impl Pattern for Starfield {
         let expected = self.probability * (1.0 - 0.5 * self.twinkle) * std::f64::consts::PI * r * r;
         let mut light: f64 = 0.0;
         if haze < 1.0 {
-            let reach = floor(drawn + w) as i64 + 1;
-            for j in cy - reach..=cy + reach {
-                for i in cx - reach..=cx + reach {
+            // Only cells whose star could reach the pixel: a star lies in its cell, and lights
+            // the pixel only within `drawn + w / 2` of its centre.
+            let reach = drawn + w;
+            let (i0, i1) = (floor(x - reach) as i64, floor(x + reach) as i64);
+            let (j0, j1) = (floor(y - reach) as i64, floor(y + reach) as i64);
+            for j in j0..=j1 {
+                for i in i0..=i1 {
                     light += self.star_light(i, j, x, y, drawn, w) * energy;
                 }
             }

@@ -12,6 +12,13 @@ fn mean_abs_diff(a: &Image, b: &Image) -> f64 {
     a.data.iter().zip(&b.data).map(|(x, y)| (x - y).abs() as f64).sum::<f64>() / a.data.len() as f64
 }
 
+/// Bourque's power-spectrum similarity at default options.
+fn s_f(a: &Image, b: &Image) -> f64 {
+    use crate::synth::metrics::{power_feature, power_similarity, PowerParams};
+    let p = PowerParams::default();
+    power_similarity(&power_feature(a, &p).unwrap(), &power_feature(b, &p).unwrap()).unwrap()
+}
+
 /// Box-downsampling by an integer factor.
 fn downsample(img: &Image, k: usize) -> Image {
     Image::from_fn(img.width / k, img.height / k, img.channels, |x, y, c| {
@@ -179,20 +186,23 @@ fn renders_are_deterministic_and_independent_of_the_thread_count() {
 #[test]
 fn a_fine_render_box_downsampled_looks_like_the_coarse_render() {
     // F3: 1024² box-downsampled to 256² against the 256² render, mean absolute difference
-    // ≤ 0.02 (the resolution-independence claim), for every shader at its defaults.
+    // ≤ 0.02 and S_F ≥ 0.99 (the resolution-independence claim), for every shader at its defaults.
     for def in LIBRARY {
         let v = def.defaults();
         let fine = downsample(&render_square(def, &v, 5, 1024).unwrap(), 4);
         let coarse = render_square(def, &v, 5, 256).unwrap();
         let d = mean_abs_diff(&fine, &coarse);
         assert!(d <= 0.02, "{}: mean |Δ| = {d:.4}", def.name);
+        let s = s_f(&fine, &coarse);
+        assert!(s >= 0.99, "{}: S_F = {s:.5}", def.name);
     }
 }
 
 #[test]
 fn every_float_parameter_changes_the_image_continuously() {
-    // F4 (pixel form): a step of 1e-4 of a parameter's range changes the 128² render by a mean
-    // of at most 1e-3, at 10 random points of every shader's space.
+    // F4: a step of 1e-4 of a parameter's range keeps S_F ≥ 0.999 and changes the 128² render
+    // by a mean of at most 1e-3 (or proportionally less for a ten times smaller step), at 10
+    // random points of every shader's space.
     let mut rng = Rng::new(99);
     for def in LIBRARY {
         let at = params::offsets(def.params);
@@ -208,7 +218,11 @@ fn every_float_parameter_changes_the_image_continuously() {
                     let mut y = x.clone();
                     let step = 1e-4 * (hi - lo);
                     y[i + k] = if y[i + k] + step <= hi { y[i + k] + step } else { y[i + k] - step };
-                    let d = mean_abs_diff(&base, &render_square(def, &y, 3, 128).unwrap());
+                    let moved = render_square(def, &y, 3, 128).unwrap();
+                    // F4 as Bourque's checklist states it: S_F ≥ 0.999.
+                    let s = s_f(&base, &moved);
+                    assert!(s >= 0.999, "{}.{} at {x:?}: S_F = {s}", def.name, p.name);
+                    let d = mean_abs_diff(&base, &moved);
                     if d <= 1e-3 {
                         continue;
                     }
