@@ -270,7 +270,7 @@ pub static SUPERELLIPSE: ShaderDef = ShaderDef {
         P::colour("background", &[0.1, 0.15, 0.3], "Around it."),
     ],
     stochastic: false,
-    version: 1,
+    version: 2,
     build: |v, _| {
         let mut a = Args::new(v);
         Box::new(Superellipse { a: a.f(), b: a.f(), n: a.f(), colour: a.c(), background: a.c() })
@@ -293,15 +293,31 @@ impl Superellipse {
             return f64::INFINITY;
         }
         let (x, y) = ((x / self.a).abs(), (y / self.b).abs());
-        let m = x.max(y);
-        if m == 0.0 {
+        let (big, small) = (x.max(y), x.min(y));
+        if big == 0.0 {
             return f64::NEG_INFINITY;
         }
-        // Scaled by the larger term so that large exponents do not overflow.
-        let f = m * ((x / m).powf(self.n) + (y / m).powf(self.n)).powf(1.0 / self.n);
-        let gx = (x / f).powf(self.n - 1.0) / self.a;
-        let gy = (y / f).powf(self.n - 1.0) / self.b;
-        (f - 1.0) / gx.hypot(gy)
+        // With t = small / big ≤ 1: F = big · S^(1/n), S = 1 + tⁿ, and the partial derivatives
+        // (coordinate / F)^(n − 1) are S^(1/n) / S for the larger coordinate and t^(n − 1)
+        // times that for the smaller: two powers instead of five, none overflowing.
+        let n = self.n;
+        let t = small / big;
+        let tn = t.powf(n);
+        let s = 1.0 + tn;
+        let root = s.powf(1.0 / n);
+        let f = big * root;
+        let g_big = root / s;
+        let g_small = if t > 0.0 {
+            tn / t * g_big
+        } else if n > 1.0 {
+            0.0
+        } else if n == 1.0 {
+            g_big
+        } else {
+            f64::INFINITY
+        };
+        let (gx, gy) = if x >= y { (g_big, g_small) } else { (g_small, g_big) };
+        (f - 1.0) / (gx / self.a).hypot(gy / self.b)
     }
 }
 
