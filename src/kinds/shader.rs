@@ -18,7 +18,7 @@ use crate::lang::{Decl, Diagnostic, Val};
 use crate::raster::Image;
 use crate::synth::shader::{self as lib, ParamKind, ShaderDef};
 
-/// Working memory per pixel: the interleaved render and the planar image.
+/// Working memory per pixel: the planar RGB image and the copy an output encodes.
 const BYTES_PER_PIXEL: f64 = 24.0;
 
 /// Leaks a string built once for the process-wide schema.
