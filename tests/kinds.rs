@@ -60,7 +60,10 @@ fn a_reference_of_the_wrong_type_says_what_would_do() {
         "map m { from = constant(0.5) }\nlayer l {\n  quilt = m\n  block = 8 px\n}\noutput \"l.png\" { from = l }\n";
     let err = common::failed_build("wrong_type", scene, &[]);
     assert!(err.contains("`m` is a map, but an image is expected here"), "{err}");
-    assert!(err.contains("an image comes from a sample, a representation, an appearance, a shader or a layer"), "{err}");
+    assert!(
+        err.contains("an image comes from a sample, a representation, an appearance, a shader or a layer"),
+        "{err}"
+    );
 }
 
 #[test]
