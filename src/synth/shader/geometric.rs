@@ -2,9 +2,9 @@
 //! [references: bourque §5]. SH1 bar, SH2 weave, SH3/SH4 bricks, SH9 n-point star, SH10
 //! rectangle, SH11 circle, SH12 super-ellipse.
 
+use super::def::{Pattern, ShaderDef};
 use super::params::{Args, ParamDef as P};
 use super::prims::{cell_random, coverage, filtered_pulse_train, floor, mix, plastic, scale};
-use super::{Pattern, ShaderDef};
 
 /// The texture-map tiling convention: the unit square repeats.
 #[inline]

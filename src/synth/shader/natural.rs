@@ -2,11 +2,11 @@
 //! eyeball veins, SH7 clouds, SH8 a star field and SH13 Gritz's hexagonal tiles. Their noise is
 //! seeded, so a target from another seed is matched by similarity, not by equal parameters.
 
+use super::def::{Pattern, ShaderDef};
 use super::params::{Args, ParamDef as P};
 use super::prims::{
     cell_random, coverage, fbm, floor, mix, octave_weight, plastic, scale, smoothstep, snoise, turbulence, vl_noise,
 };
-use super::{Pattern, ShaderDef};
 
 pub static CYCLONE: ShaderDef = ShaderDef {
     name: "cyclone",
