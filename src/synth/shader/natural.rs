@@ -5,7 +5,8 @@
 use super::def::{Pattern, ShaderDef};
 use super::params::{Args, ParamDef as P};
 use super::prims::{
-    cell_random, coverage, fbm, floor, mix, octave_weight, plastic, scale, smoothstep, snoise, turbulence, vl_noise,
+    cell_random, coverage, fbm, floor, mix, octave_count, octave_weight, plastic, scale, smoothstep, snoise,
+    turbulence, vl_noise,
 };
 
 pub static CYCLONE: ShaderDef = ShaderDef {
@@ -72,7 +73,7 @@ impl Pattern for Cyclone {
             return self.background;
         }
         let (px, py) = (px * self.frequency, py * self.frequency);
-        let (whole, frac) = (floor(self.octaves) as usize, self.octaves - floor(self.octaves));
+        let (whole, frac) = octave_count(self.octaves);
         let mut sum = 0.0;
         let mut o = 1.0;
         let mut l = 1.0;
@@ -173,7 +174,7 @@ impl Pattern for Eyeball {
         let mut displayed = 0.0;
         let mut turb = 1.0;
         let mut freq = self.vein_freq;
-        let (whole, frac) = (floor(self.vein_level) as usize, self.vein_level - floor(self.vein_level));
+        let (whole, frac) = octave_count(self.vein_level);
         for i in 0..=whole {
             let w = if i < whole { 1.0 } else { frac };
             let fade = octave_weight(freq, fw);

@@ -110,8 +110,8 @@ pub fn octave_weight(freq: f64, fw: f64) -> f64 {
 /// The octaves of a sum: `octaves` may be fractional, the last one weighted by the fraction
 /// (Musgrave's remainder), so the sum is continuous in it.
 #[inline]
-fn octave_count(octaves: f64) -> (usize, f64) {
-    let whole = octaves.floor().max(0.0);
+pub(super) fn octave_count(octaves: f64) -> (usize, f64) {
+    let whole = floor(octaves).max(0.0);
     (whole as usize, octaves - whole)
 }
 
@@ -154,17 +154,8 @@ fn sum_octaves(x: f64, y: f64, octaves: f64, gain: f64, fw: f64, seed: u32, f: i
     sum
 }
 
-#[inline]
-pub fn smoothstep(lo: f64, hi: f64, x: f64) -> f64 {
-    if x <= lo {
-        return 0.0;
-    }
-    if x >= hi {
-        return 1.0;
-    }
-    let t = (x - lo) / (hi - lo);
-    t * t * (3.0 - 2.0 * t)
-}
+/// The cubic step RenderMan shaders use: the one appearance alpha already had.
+pub use crate::synth::appearance::alpha::smoothstep;
 
 #[inline]
 pub fn mix(a: [f32; 3], b: [f32; 3], t: f64) -> [f32; 3] {
