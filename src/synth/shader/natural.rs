@@ -273,7 +273,7 @@ pub static STARFIELD: ShaderDef = ShaderDef {
         P::colour("star", &[1.0, 0.97, 0.85], "The stars."),
     ],
     stochastic: true,
-    version: 1,
+    version: 2,
     build: |v, seed| {
         let mut a = Args::new(v);
         Box::new(Starfield {
