@@ -4,6 +4,7 @@ pub mod blend;
 pub mod fft;
 pub mod library;
 pub mod map;
+pub mod matching;
 pub mod mesh;
 pub mod metrics;
 pub mod noise;

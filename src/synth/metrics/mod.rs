@@ -35,7 +35,10 @@ pub use patches::{nearest_patch_distance, patch_similarity, PatchParams, PatchSi
 pub use power::{
     power_feature, power_similarity, Calibration, PowerError, PowerFeature, PowerParams, MIN_SIDE as POWER_MIN_SIDE,
 };
-pub use pyramid::{laplacian_pyramid, pyramid_distance, reconstruct, PyramidLevel, PyramidParams};
+pub use pyramid::{
+    laplacian_pyramid, pyramid_distance, pyramid_feature, pyramid_feature_distance, reconstruct, PyramidFeature,
+    PyramidLevel, PyramidParams,
+};
 pub use spectrum::{radial_power_spectrum, spectrum_distance, SpectrumParams};
 
 /// All measures of `output` against `sample`.

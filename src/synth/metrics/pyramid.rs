@@ -110,21 +110,41 @@ fn level_histogram(l: &PyramidLevel, params: &PyramidParams) -> Vec<f64> {
     h
 }
 
+/// The level histograms of an image: [`pyramid_feature_distance`] of two features is
+/// [`pyramid_distance`] of their images, so a catalogue histograms each render once.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PyramidFeature {
+    pub params: PyramidParams,
+    /// One normalised histogram per level with both sides at least `min_side`, finest first.
+    pub levels: Vec<Vec<f64>>,
+}
+
+/// The feature of `img` (see the module documentation).
+pub fn pyramid_feature(img: &Image, params: &PyramidParams) -> PyramidFeature {
+    let levels = laplacian_pyramid(&luma(img), img.width, img.height)
+        .iter()
+        .take_while(|l| l.width >= params.min_side && l.height >= params.min_side)
+        .map(|l| level_histogram(l, params))
+        .collect();
+    PyramidFeature { params: *params, levels }
+}
+
+/// The distance of two features in `[0, 1]` over their common levels (0 when they share none);
+/// `None` when they were histogrammed with different options.
+pub fn pyramid_feature_distance(a: &PyramidFeature, b: &PyramidFeature) -> Option<f64> {
+    if a.params != b.params {
+        return None;
+    }
+    let n = a.levels.len().min(b.levels.len());
+    if n == 0 {
+        return Some(0.0);
+    }
+    let sum: f64 =
+        a.levels.iter().zip(&b.levels).map(|(x, y)| x.iter().zip(y).map(|(p, q)| (p - q).abs()).sum::<f64>()).sum();
+    Some(0.5 * sum / n as f64)
+}
+
 /// Laplacian-pyramid histogram distance in `[0, 1]` (see the module documentation).
 pub fn pyramid_distance(a: &Image, b: &Image, params: &PyramidParams) -> f64 {
-    let pa = laplacian_pyramid(&luma(a), a.width, a.height);
-    let pb = laplacian_pyramid(&luma(b), b.width, b.height);
-    let mut ds = Vec::new();
-    for (la, lb) in pa.iter().zip(&pb) {
-        let ok = |l: &PyramidLevel| l.width >= params.min_side && l.height >= params.min_side;
-        if !ok(la) || !ok(lb) {
-            break;
-        }
-        let (ha, hb) = (level_histogram(la, params), level_histogram(lb, params));
-        ds.push(ha.iter().zip(&hb).map(|(x, y)| (x - y).abs()).sum::<f64>());
-    }
-    if ds.is_empty() {
-        return 0.0;
-    }
-    0.5 * ds.iter().sum::<f64>() / ds.len() as f64
+    pyramid_feature_distance(&pyramid_feature(a, params), &pyramid_feature(b, params)).expect("same options")
 }

@@ -113,7 +113,7 @@ pub static EYEBALL: ShaderDef = ShaderDef {
         P::float("bloodshot", 0.0, 1.0, &[1.0], "How strongly veins show."),
         P::float("veinfreq", 1.0, 16.0, &[8.0], "Vein noise lattice cells per texture unit in the first level."),
         P::float("veinlevel", 1.0, 10.0, &[4.0], "Levels of veins, each twice as fine; a fraction weights the last."),
-        P::int("index", 0, 1000, &[0.0], "Which vein network (offsets the noise)."),
+        P::int("index", 0, 1000, &[0.0], "Which vein network (offsets the noise; a search leaves it alone: any network looks alike).").fixed(),
     ],
     stochastic: true,
     version: 2,

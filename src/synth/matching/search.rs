@@ -1,0 +1,283 @@
+//! Matching a target image against catalogued shaders ([references: bourque §4.3] and §4.4):
+//!
+//! 1. **Screening**: each shader's screening subset against the target; shaders whose best
+//!    calibrated similarity reaches `screen` stay, and the `keep` best always do.
+//! 2. **Scan** (Eq. 4.6): every vertex of the kept catalogues; the best `per_shader` of each
+//!    shader, then the best `seeds` overall, in decreasing similarity, seeds within `tie` of
+//!    each other taken smoothest first (lowest `H`).
+//! 3. **Refinement**: the bounded simplex from each seed, `batch` seeds at a time (in
+//!    parallel; the batch size, not the thread count, fixes which seeds run, so results do not
+//!    depend on the machine), stopping early once a result reaches `accept_at`; then a sweep of
+//!    ±1 over the integer parameters of the best point.
+//! 4. **Status**: `matched` when the best calibrated similarity reaches `residual`, else
+//!    `no good match` (the target is outside what the library can make).
+//!
+//! Scores are calibrated across the library ([`Calibration`] from pairs of screening vertices
+//! of different shaders), so thresholds mean the same whichever shaders are candidates.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::catalogue::{Catalogue, Oracle};
+use super::probe::{similarity, Feature, Probe};
+use super::simplex::{minimise, SimplexConfig};
+use super::space::Space;
+use crate::synth::metrics::Calibration;
+
+/// A catalogued shader offered to the matcher.
+pub struct Candidate<'a> {
+    pub probe: Probe<'a>,
+    pub catalogue: &'a Catalogue<Feature>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MatchConfig {
+    /// Calibrated similarity a shader's screening subset must reach to be scanned.
+    pub screen: f64,
+    /// Shaders scanned whatever their screening score (the best ones).
+    pub keep: usize,
+    pub per_shader: usize,
+    pub seeds: usize,
+    /// Seeds whose calibrated similarities differ by at most this are ordered by roughness.
+    pub tie: f64,
+    pub batch: usize,
+    pub simplex: SimplexConfig,
+    /// A calibrated similarity that ends the search as soon as a result reaches it.
+    pub accept_at: Option<f64>,
+    /// Calibrated similarity below which the result is `no good match`.
+    pub residual: f64,
+}
+
+impl Default for MatchConfig {
+    fn default() -> Self {
+        MatchConfig {
+            screen: 0.6,
+            keep: 3,
+            per_shader: 4,
+            seeds: 8,
+            tie: 0.02,
+            batch: 2,
+            simplex: SimplexConfig::default(),
+            accept_at: None,
+            residual: 0.8,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    Matched,
+    NoGoodMatch,
+}
+
+/// One local search, for the record.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SeedRun {
+    pub shader: String,
+    /// The catalogue vertex it started from, its calibrated similarity and roughness.
+    pub vertex: usize,
+    pub start: f64,
+    pub roughness: f64,
+    /// The calibrated similarity it reached, in how many iterations and renders.
+    pub reached: f64,
+    pub iterations: usize,
+    pub renders: usize,
+}
+
+/// The result of a match.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MatchRecord {
+    pub status: Status,
+    pub shader: String,
+    /// The flat parameter vector.
+    pub values: Vec<f64>,
+    /// Raw similarity `S` of the match's render to the target, and calibrated `S'`.
+    pub similarity: f64,
+    pub score: f64,
+    /// The library calibration.
+    pub calibration: Calibration,
+    /// Shaders that passed screening, in scan order.
+    pub scanned: Vec<String>,
+    pub runs: Vec<SeedRun>,
+    /// Renders of the whole match.
+    pub renders: usize,
+}
+
+/// Why nothing can be matched.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MatchError {
+    #[error("no shader to match against")]
+    NoCandidates,
+}
+
+/// The library calibration: pairs of screening vertices of different shaders (or of one, if
+/// there is only one).
+pub fn library_calibration(cands: &[Candidate]) -> Calibration {
+    let mut sims = Vec::new();
+    for (a, ca) in cands.iter().enumerate() {
+        for cb in &cands[a + (cands.len() > 1) as usize..] {
+            for &i in &ca.catalogue.screen {
+                for &j in &cb.catalogue.screen {
+                    if !std::ptr::eq(ca, cb) || i < j {
+                        sims.push(similarity(&ca.catalogue.features[i], &cb.catalogue.features[j]));
+                    }
+                }
+            }
+        }
+    }
+    Calibration::from_pairs(&sims).unwrap_or(Calibration { d0: 1.0 })
+}
+
+struct Seed {
+    cand: usize,
+    vertex: usize,
+    score: f64,
+    roughness: f64,
+}
+
+/// Matches `target` (the feature of the target at the probes' side, computed with their
+/// metric) against `cands` (see the module documentation).
+pub fn match_target(target: &Feature, cands: &[Candidate], cfg: &MatchConfig) -> Result<MatchRecord, MatchError> {
+    if cands.is_empty() || cands.iter().all(|c| c.catalogue.is_empty()) {
+        return Err(MatchError::NoCandidates);
+    }
+    let cal = library_calibration(cands);
+    let score = |f: &Feature| cal.apply(similarity(f, target));
+
+    // Screening.
+    let screened: Vec<f64> = cands
+        .iter()
+        .map(|c| c.catalogue.screen.iter().map(|&i| score(&c.catalogue.features[i])).fold(0.0, f64::max))
+        .collect();
+    let mut order: Vec<usize> = (0..cands.len()).filter(|&i| !cands[i].catalogue.is_empty()).collect();
+    order.sort_by(|&a, &b| screened[b].total_cmp(&screened[a]).then(a.cmp(&b)));
+    let kept: Vec<usize> = order
+        .iter()
+        .enumerate()
+        .filter(|&(rank, &i)| rank < cfg.keep || screened[i] >= cfg.screen)
+        .map(|(_, &i)| i)
+        .collect();
+
+    // Scan.
+    let mut seeds = Vec::new();
+    for &c in &kept {
+        let cat = cands[c].catalogue;
+        let s: Vec<f64> = cat.features.par_iter().map(score).collect();
+        let mut idx: Vec<usize> = (0..s.len()).collect();
+        idx.sort_by(|&a, &b| s[b].total_cmp(&s[a]).then(a.cmp(&b)));
+        for &v in idx.iter().take(cfg.per_shader.max(1)) {
+            seeds.push(Seed { cand: c, vertex: v, score: s[v], roughness: cat.roughness[v] });
+        }
+    }
+    seeds.sort_by(|a, b| b.score.total_cmp(&a.score).then((a.cand, a.vertex).cmp(&(b.cand, b.vertex))));
+    seeds.truncate(cfg.seeds.max(1));
+    order_by_roughness(&mut seeds, cfg.tie);
+
+    // Refinement.
+    let mut runs = Vec::new();
+    let mut best: Option<(usize, Vec<f64>, f64)> = None;
+    let mut renders = 0;
+    for batch in seeds.chunks(cfg.batch.max(1)) {
+        let results: Vec<_> = batch
+            .par_iter()
+            .map(|s| {
+                let c = &cands[s.cand];
+                let x0 = &c.catalogue.points[s.vertex];
+                let r = minimise(
+                    |x| 1.0 - similarity(&c.probe.feature(x), target),
+                    |x| c.probe.snap(x),
+                    x0,
+                    &cfg.simplex,
+                    |loss| cfg.accept_at.is_some_and(|a| cal.apply(1.0 - loss) >= a),
+                );
+                (s, r)
+            })
+            .collect();
+        for (s, r) in results {
+            let reached = cal.apply(1.0 - r.loss);
+            renders += r.evaluations;
+            runs.push(SeedRun {
+                shader: cands[s.cand].probe.space.shader.name.to_string(),
+                vertex: s.vertex,
+                start: s.score,
+                roughness: s.roughness,
+                reached,
+                iterations: r.iterations,
+                renders: r.evaluations,
+            });
+            if best.as_ref().is_none_or(|b| reached > b.2) {
+                best = Some((s.cand, r.x, reached));
+            }
+        }
+        if cfg.accept_at.is_some_and(|a| best.as_ref().is_some_and(|b| b.2 >= a)) {
+            break;
+        }
+    }
+    let (c, mut x, _) = best.expect("at least one seed");
+    let probe = &cands[c].probe;
+    let mut loss = 1.0 - similarity(&probe.feature(&x), target);
+    renders += 1;
+    renders += integer_sweep(probe, probe.space, target, &mut x, &mut loss);
+    let similarity = 1.0 - loss;
+    let score = cal.apply(similarity);
+    Ok(MatchRecord {
+        status: if score >= cfg.residual { Status::Matched } else { Status::NoGoodMatch },
+        shader: probe.space.shader.name.to_string(),
+        values: probe.space.values(&x),
+        similarity,
+        score,
+        calibration: cal,
+        scanned: kept.iter().map(|&i| cands[i].probe.space.shader.name.to_string()).collect(),
+        runs,
+        renders,
+    })
+}
+
+/// Seeds sorted by decreasing score; within a run of scores no more than `tie` below its
+/// first, the smoothest (lowest roughness) first.
+fn order_by_roughness(seeds: &mut [Seed], tie: f64) {
+    let mut i = 0;
+    while i < seeds.len() {
+        let mut j = i + 1;
+        while j < seeds.len() && seeds[i].score - seeds[j].score <= tie {
+            j += 1;
+        }
+        seeds[i..j]
+            .sort_by(|a, b| a.roughness.total_cmp(&b.roughness).then((a.cand, a.vertex).cmp(&(b.cand, b.vertex))));
+        i = j;
+    }
+}
+
+/// Steps each integer axis by ±1 while that lowers the loss (the simplex moves integer axes
+/// as reals, and between whole numbers the loss is flat). Returns the renders it made.
+fn integer_sweep(probe: &Probe, space: &Space, target: &Feature, x: &mut Vec<f64>, loss: &mut f64) -> usize {
+    let mut renders = 0;
+    for _ in 0..8 {
+        let mut improved = false;
+        for i in 0..space.dim() {
+            let q = space.quantum(i);
+            if q == 0.0 {
+                continue;
+            }
+            for sign in [-1.0, 1.0] {
+                let mut y = x.clone();
+                y[i] += sign * q;
+                space.snap(&mut y);
+                if y == *x {
+                    continue;
+                }
+                renders += 1;
+                let l = 1.0 - similarity(&probe.feature(&y), target);
+                if l < *loss {
+                    (*x, *loss) = (y, l);
+                    improved = true;
+                }
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+    renders
+}
