@@ -3,8 +3,11 @@
 //! 1. **Screening**: each shader's screening subset against the target; shaders whose best
 //!    calibrated similarity reaches `screen` stay, and the `keep` best always do.
 //! 2. **Scan** (Eq. 4.6): every vertex of the kept catalogues; the best `per_shader` of each
-//!    shader, then the best `seeds` overall, in decreasing similarity, seeds within `tie` of
-//!    each other taken smoothest first (lowest `H`).
+//!    shader; of those, the best of every shader and the `seeds` best others, in decreasing
+//!    similarity, seeds within `tie` of each other taken smoothest first
+//!    (lowest `H`). A shader that passed screening always gets its own local search: its best
+//!    vertex can rank below another shader's near misses (a brick wall's peaks a little off
+//!    the target's score lower than a blur) and still be the only one in the right basin.
 //! 3. **Refinement**: the bounded simplex from each seed, `batch` seeds at a time (in
 //!    parallel; the batch size, not the thread count, fixes which seeds run, so results do not
 //!    depend on the machine), stopping early once a result reaches `accept_at`; then a sweep of
@@ -37,6 +40,7 @@ pub struct MatchConfig {
     /// Shaders scanned whatever their screening score (the best ones).
     pub keep: usize,
     pub per_shader: usize,
+    /// Seeds beyond each scanned shader's best vertex.
     pub seeds: usize,
     /// Seeds whose calibrated similarities differ by at most this are ordered by roughness.
     pub tie: f64,
@@ -52,7 +56,7 @@ impl Default for MatchConfig {
     fn default() -> Self {
         MatchConfig {
             screen: 0.6,
-            keep: 3,
+            keep: 16,
             per_shader: 4,
             seeds: 8,
             tie: 0.02,
@@ -170,8 +174,21 @@ pub fn match_target(target: &Feature, cands: &[Candidate], cfg: &MatchConfig) ->
             seeds.push(Seed { cand: c, vertex: v, score: s[v], roughness: cat.roughness[v] });
         }
     }
-    seeds.sort_by(|a, b| b.score.total_cmp(&a.score).then((a.cand, a.vertex).cmp(&(b.cand, b.vertex))));
-    seeds.truncate(cfg.seeds.max(1));
+    // Every scanned shader's best vertex, then the best of the rest up to `seeds`.
+    let by_score = |a: &Seed, b: &Seed| b.score.total_cmp(&a.score).then((a.cand, a.vertex).cmp(&(b.cand, b.vertex)));
+    let (mut firsts, mut rest): (Vec<Seed>, Vec<Seed>) = {
+        let mut seen = Vec::new();
+        seeds.into_iter().partition(|s| {
+            let first = !seen.contains(&s.cand);
+            seen.push(s.cand);
+            first
+        })
+    };
+    rest.sort_by(by_score);
+    rest.truncate(cfg.seeds);
+    firsts.append(&mut rest);
+    let mut seeds = firsts;
+    seeds.sort_by(by_score);
     order_by_roughness(&mut seeds, cfg.tie);
 
     // Refinement.
@@ -218,7 +235,7 @@ pub fn match_target(target: &Feature, cands: &[Candidate], cfg: &MatchConfig) ->
     let probe = &cands[c].probe;
     let mut loss = 1.0 - similarity(&probe.feature(&x), target);
     renders += 1;
-    renders += integer_sweep(probe, probe.space, target, &mut x, &mut loss);
+    renders += integer_sweep(probe, probe.space, target, &cfg.simplex, &mut x, &mut loss);
     let similarity = 1.0 - loss;
     let score = cal.apply(similarity);
     Ok(MatchRecord {
@@ -250,8 +267,19 @@ fn order_by_roughness(seeds: &mut [Seed], tie: f64) {
 }
 
 /// Steps each integer axis by ±1 while that lowers the loss (the simplex moves integer axes
-/// as reals, and between whole numbers the loss is flat). Returns the renders it made.
-fn integer_sweep(probe: &Probe, space: &Space, target: &Feature, x: &mut Vec<f64>, loss: &mut f64) -> usize {
+/// as reals, and between whole numbers the loss is flat). Each neighbour first gets a short
+/// simplex over the real axes with the whole numbers held: a star of five points tuned as five
+/// is worse than the start as four, tuned as four it is the match. Returns the renders made.
+fn integer_sweep(
+    probe: &Probe,
+    space: &Space,
+    target: &Feature,
+    cfg: &SimplexConfig,
+    x: &mut Vec<f64>,
+    loss: &mut f64,
+) -> usize {
+    let reals: Vec<usize> = (0..space.dim()).filter(|&i| space.quantum(i) == 0.0).collect();
+    let short = SimplexConfig { max_iterations: cfg.max_iterations.min(40), restarts: 0, ..cfg.clone() };
     let mut renders = 0;
     for _ in 0..8 {
         let mut improved = false;
@@ -267,10 +295,31 @@ fn integer_sweep(probe: &Probe, space: &Space, target: &Feature, x: &mut Vec<f64
                 if y == *x {
                     continue;
                 }
-                renders += 1;
-                let l = 1.0 - similarity(&probe.feature(&y), target);
-                if l < *loss {
-                    (*x, *loss) = (y, l);
+                let held = y.clone();
+                let full = |r: &[f64]| {
+                    let mut z = held.clone();
+                    for (&k, &v) in reals.iter().zip(r) {
+                        z[k] = v;
+                    }
+                    z
+                };
+                let r0: Vec<f64> = reals.iter().map(|&k| y[k]).collect();
+                let r = minimise(
+                    |r| 1.0 - similarity(&probe.feature(&full(r)), target),
+                    |r| {
+                        let mut z = full(r);
+                        space.snap(&mut z);
+                        for (k, v) in reals.iter().zip(r.iter_mut()) {
+                            *v = z[*k];
+                        }
+                    },
+                    &r0,
+                    &short,
+                    |_| false,
+                );
+                renders += r.evaluations;
+                if r.loss < *loss {
+                    (*x, *loss) = (full(&r.x), r.loss);
                     improved = true;
                 }
             }
