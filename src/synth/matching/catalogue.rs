@@ -355,9 +355,8 @@ pub fn build<O: Oracle>(oracle: &O, cfg: &CatalogueConfig, seed: u64) -> Catalog
             added += a;
             duplicates += d;
             let mut pruned = 0;
-            if b.points.len() > cfg.cap.max(1) {
-                let lambda = redundancy(&b.rows);
-                let gone: Vec<usize> = ranked(&lambda).into_iter().take(b.points.len() - cfg.cap.max(1)).collect();
+            let gone = pruned_set(&b.rows, cfg.cap.max(1));
+            if !gone.is_empty() {
                 pruned = gone.len();
                 b.remove(gone);
             }
@@ -378,6 +377,13 @@ pub fn build<O: Oracle>(oracle: &O, cfg: &CatalogueConfig, seed: u64) -> Catalog
         features_computed: b.features_computed,
         comparisons: b.comparisons,
     }
+}
+
+/// The vertices pruning removes to bring the graph down to `cap`: the most redundant (largest
+/// λ), all at once, ties by index.
+pub fn pruned_set(rows: &[Vec<f64>], cap: usize) -> Vec<usize> {
+    let excess = rows.len().saturating_sub(cap);
+    ranked(&redundancy(rows)).into_iter().take(excess).collect()
 }
 
 /// The screening subset: the most redundant vertex removed one at a time until `cap` remain.

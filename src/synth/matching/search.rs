@@ -59,7 +59,7 @@ impl Default for MatchConfig {
             keep: 16,
             per_shader: 4,
             seeds: 8,
-            tie: 0.02,
+            tie: 0.005,
             batch: 2,
             simplex: SimplexConfig::default(),
             accept_at: None,
