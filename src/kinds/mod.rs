@@ -8,6 +8,7 @@ mod artifact;
 mod layer;
 mod library;
 mod map;
+mod matching;
 mod model;
 mod output;
 mod procedural;
@@ -66,6 +67,7 @@ pub static KINDS: &[&dyn Kind] = &[
     &appearance::Appearance,
     &procedural::ProceduralKind,
     &shader::ShaderKind,
+    &matching::MatchKind,
     &layer::Layer,
     &library::Library,
     &model::ModelKind,
@@ -292,6 +294,12 @@ impl Planner<'_> {
         Err(diag.with_help(
             "use a smaller size, or raise the budget with `--max-memory` or `[limits] max_memory` in tessera.toml",
         ))
+    }
+
+    /// A seed from the scene's seed and a name other than a declaration's (a stream shared
+    /// by declarations).
+    pub fn scene_seed_for(&self, name: &str, stream: &str) -> u64 {
+        crate::synth::rng::derive_seed(self.scene.seed, name, stream)
     }
 
     /// A seed for a random stream of this declaration.

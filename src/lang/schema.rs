@@ -77,6 +77,8 @@ pub enum Value {
     Model,
     /// A procedural texture fitted by example: its parameters.
     Procedural,
+    /// A shader and parameters matched to a target image.
+    Match,
 }
 
 impl Value {
@@ -92,6 +94,7 @@ impl Value {
             Value::Patch => "a patch (a sample with a `height` layer)",
             Value::Model => "a model",
             Value::Procedural => "a procedural texture",
+            Value::Match => "a match",
         }
     }
 }

@@ -20,7 +20,7 @@ pub static SPEC: KindSpec = KindSpec {
     props: &[
         PropSpec {
             name: "from",
-            ty: Ty::Ref(&[Value::Map, Value::Image, Value::Plane, Value::Structure, Value::Model, Value::Procedural]),
+            ty: Ty::Ref(&[Value::Map, Value::Image, Value::Plane, Value::Structure, Value::Model, Value::Procedural, Value::Match]),
             default: Default::Required,
             doc: "What to write. Maps are written as data; 2-channel orientation fields as RGB (x, y → R, G); samples and layers in sRGB (EXR: linear); surfaces as their occupancy; structures as `view` says. A `.json` output of a sample chosen by `similar(...)` writes the ranking.",
         },
@@ -177,14 +177,19 @@ pub enum OutputFormat {
     Obj,
     /// glTF 2.0 binary (models).
     Glb,
-    /// TOML text (a procedural texture's parameters).
+    /// TOML text (a procedural texture's parameters, a match record).
     Toml,
+    /// A tessera scene declaration (a match as a `shader`).
+    Tess,
 }
 
 impl OutputFormat {
     /// Text formats are compared number by number, not pixel by pixel.
     pub fn is_text(self) -> bool {
-        matches!(self, OutputFormat::Json | OutputFormat::Svg | OutputFormat::Obj | OutputFormat::Toml)
+        matches!(
+            self,
+            OutputFormat::Json | OutputFormat::Svg | OutputFormat::Obj | OutputFormat::Toml | OutputFormat::Tess
+        )
     }
 }
 
@@ -252,6 +257,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
         (Format::Auto, "obj") => OutputFormat::Obj,
         (Format::Auto, "glb") => OutputFormat::Glb,
         (Format::Auto, "toml") => OutputFormat::Toml,
+        (Format::Auto, "tess") => OutputFormat::Tess,
         (f, e) => {
             let span = d.props.span("format").unwrap_or(d.name_span);
             return Err(Diagnostic::error(if f == Format::Auto {
@@ -262,7 +268,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
             .with_code("tessera::output_format")
             .with_label(span, "here")
             .with_help(
-                "outputs are `.png` (8- or 16-bit), `.exr`, `.json`, `.svg`, `.ptm`, `.obj`, `.glb` or `.toml` files",
+                "outputs are `.png` (8- or 16-bit), `.exr`, `.json`, `.svg`, `.ptm`, `.obj`, `.glb`, `.toml` or `.tess` files",
             ));
         }
     };
@@ -359,7 +365,8 @@ pub(crate) fn encode_image(img: &Image, format: OutputFormat) -> Result<Bytes, S
         | OutputFormat::Ptm(_)
         | OutputFormat::Obj
         | OutputFormat::Glb
-        | OutputFormat::Toml => {
+        | OutputFormat::Toml
+        | OutputFormat::Tess => {
             return Err(StageError::new("this output is not an image file: name it `.png` or `.exr`"))
         }
     }

@@ -1,3 +1,6 @@
+//! Checks of matching: catalogue steps on synthetic shaders with known behaviour, the simplex on
+//! functions with known optima, and the library search on renders of the library itself.
+
 use std::sync::OnceLock;
 
 use super::catalogue::{kappa, pruned_set, redundancy, screening_subset};

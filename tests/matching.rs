@@ -1,0 +1,70 @@
+//! The `match` kind [references: bourque §4]: a shader rendered in the scene is matched back
+//! to its shader and parameters, the record and the scene snippet are written, the snippet is
+//! a scene that reproduces the match, and bad input is refused at its span.
+
+mod common;
+
+use common::Project;
+
+fn scene(target: &str, props: &str) -> String {
+    format!(
+        "scene {{\n  seed = 2\n  size = 64 x 64\n}}\n\n{target}\n\nmatch m {{\n  target = t\n{props}}}\n\n\
+         output \"m.toml\" {{\n  from = m\n}}\n\noutput \"m.tess\" {{\n  from = m\n}}\n\noutput \"m.png\" {{\n  from = m\n}}\n"
+    )
+}
+
+const BAR: &str = "shader t {\n  pattern = bar(width = 0.37)\n}";
+
+#[test]
+fn a_rendered_shader_is_matched_and_its_snippet_reproduces_it() {
+    let p = Project::new(&[("scene.tess", &scene(BAR, "  candidates = \"bar, circle\"\n  side = 64\n"))]);
+    p.tessera(&["build", "scene.tess"]).ok();
+    let record = String::from_utf8(p.read("out/scene/m.toml")).unwrap();
+    assert!(record.contains("status = \"matched\""), "{record}");
+    assert!(record.contains("shader = \"bar\""), "{record}");
+    let width: f64 = record.lines().find_map(|l| l.strip_prefix("width = ")).unwrap().parse().unwrap();
+    assert!((width - 0.37).abs() <= 1.0 / 256.0, "{width}");
+    // F32: a compact record.
+    assert!(record.len() <= 2048, "{}", record.len());
+    let pair = image::open(p.path("out/scene/m.png")).unwrap().to_rgb8();
+    assert_eq!(pair.dimensions(), (64 * 2 + 2, 64));
+    // The snippet is a declaration a scene can use as it is.
+    let snippet = String::from_utf8(p.read("out/scene/m.tess")).unwrap();
+    p.write(
+        "again.tess",
+        &format!("scene {{\n  size = 64 x 64\n}}\n\n{snippet}\noutput \"s.png\" {{\n  from = m_shader\n}}\n"),
+    );
+    p.tessera(&["build", "again.tess"]).ok();
+    // A second build reuses every stage.
+    let run = p.tessera(&["build", "scene.tess"]);
+    run.ok();
+    let said = format!("{}{}", run.stdout(), run.stderr());
+    assert!(said.contains(" 0 ran"), "{said}");
+}
+
+#[test]
+fn bad_match_input_is_a_diagnostic_at_its_span() {
+    let cases: &[(&str, &str, &str, &str)] = &[
+        // (target declaration, properties, message, labelled text)
+        (BAR, "  candidates = \"bar, checker\"\n", "no shader `checker`", "\"bar, checker\""),
+        (BAR, "  candidates = \", \"\n", "at least one candidate", "\", \""),
+        (BAR, "  side = 8\n", "side", "8"),
+        (BAR, "  residual = 1.5\n", "1.5", "1.5"),
+        (BAR, "  seeds = -1\n", "-1", "-1"),
+        (BAR, "  catalogue = 0\n", "catalogue", "0"),
+        (BAR, "  metric = \"fourier\"\n", "fourier", "\"fourier\""),
+        ("shader t {\n  pattern = bar()\n  size = 12 x 40\n}", "  candidates = \"bar\"\n", "16 x 16", "t"),
+    ];
+    for (target, props, message, label) in cases {
+        let p = Project::new(&[("scene.tess", &scene(target, props))]);
+        let err = p.refuses(message, label);
+        assert!(!err.contains("panicked"), "{props}: {err}");
+    }
+}
+
+#[test]
+fn a_match_is_written_only_as_a_record_a_snippet_or_a_picture() {
+    let text = scene(BAR, "  candidates = \"bar\"\n").replace("\"m.png\"", "\"m.exr\"");
+    let p = Project::new(&[("scene.tess", &text)]);
+    p.refuses("`.toml`, `.tess` or `.png`", "\"m.exr\"");
+}
