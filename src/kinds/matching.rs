@@ -20,7 +20,6 @@ use super::{Bytes, Encoded, FnStage, OutputFormat, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value};
 use crate::lang::{Decl, Diagnostic};
-use crate::raster::resample::{crop, resize, Filter};
 use crate::raster::Image;
 use crate::synth::matching::{
     build_catalogue, feature, match_target, Candidate, Catalogue, CatalogueConfig, Feature, MatchConfig, MatchRecord,
@@ -206,19 +205,9 @@ struct TargetKey {
     metric: Metric,
 }
 
-/// The centred square of `img`, resampled to `side`.
-pub fn canonical(img: &Image, side: usize) -> Result<Image, StageError> {
-    let s = img.width.min(img.height);
-    if s < 16 {
-        return Err(StageError::new(format!(
-            "the target is {} x {}: matching needs at least 16 x 16 pixels",
-            img.width, img.height
-        ))
-        .at_prop("target"));
-    }
-    let square = crop(img, (img.width - s) / 2, (img.height - s) / 2, s, s)
-        .map_err(|e| StageError::new(e.to_string()).at_prop("target"))?;
-    Ok(if s == side { square } else { resize(&square, side, side, Filter::Bilinear) })
+/// The target's canonical square, or a diagnostic at `target`.
+fn canonical(img: &Image, side: usize) -> Result<Image, StageError> {
+    crate::synth::matching::canonical(img, side).map_err(|e| StageError::new(e.to_string()).at_prop("target"))
 }
 
 fn run_target(cx: &RunCx, k: &TargetKey) -> Result<TargetFeature, StageError> {
@@ -302,9 +291,11 @@ impl super::Kind for MatchKind {
         for def in defs {
             let key =
                 CatalogueKey { shader: def.name, version: def.version, side, metric, config: config.clone(), seed };
-            let stage = FnStage::keyed("match.catalogue", 1, key, run_catalogue);
-            let h: Handle<ShaderCatalogue> =
-                p.add(format!("match {} catalogue {}", d.name, def.name), stage, Inputs::new(), vec![]);
+            let id = serde_json::to_string(&key).expect("a catalogue key serialises");
+            let h: Handle<ShaderCatalogue> = p.shared(id, |p| {
+                let stage = FnStage::keyed("match.catalogue", 1, key, run_catalogue);
+                p.add(format!("catalogue {}", def.name), stage, Inputs::new(), vec![])
+            });
             catalogues.push((def.name, inputs.add(h)));
         }
         let at = props.span("target").unwrap_or(d.name_span);

@@ -189,6 +189,8 @@ pub struct Planner<'a> {
     results: HashMap<String, AnyHandle>,
     /// Further named nodes of multi-stage declarations: (declaration, part) → node.
     parts: HashMap<(String, &'static str), AnyHandle>,
+    /// Stages several declarations share, by a key their kind makes (a match's catalogues).
+    shared: HashMap<String, AnyHandle>,
     exports: HashMap<String, Exports>,
     outputs: Vec<PlannedOutput>,
     decl_index: usize,
@@ -216,6 +218,17 @@ impl Planner<'_> {
         let (files, spans): (Vec<PathBuf>, Vec<Span>) = files.into_iter().unzip();
         self.blame.push(Blame { decl: self.decl_index, span: decl.name_span, files: spans });
         self.graph.add_typed(label, stage, inputs, files, self.decl_index)
+    }
+
+    /// The stage planned under `key` by an earlier declaration, or the one `make` plans now:
+    /// declarations that need the same work (two matches trying one shader) share one stage.
+    pub fn shared<T: Encoded>(&mut self, key: String, make: impl FnOnce(&mut Self) -> Handle<T>) -> Handle<T> {
+        if let Some(h) = self.shared.get(&key) {
+            return typed(*h, &key);
+        }
+        let h = make(self);
+        self.shared.insert(key, h.erase());
+        h
     }
 
     /// Records a named part of the multi-stage declaration `d` (a structure's `lloyd`).
@@ -349,6 +362,7 @@ pub fn plan_with(scene: &Scene, options: &PlanOptions<'_>) -> Result<Plan, Vec<D
         blame: Vec::new(),
         results: HashMap::new(),
         parts: HashMap::new(),
+        shared: HashMap::new(),
         exports: HashMap::new(),
         outputs: Vec::new(),
         decl_index: 0,

@@ -20,7 +20,7 @@ pub mod simplex;
 pub mod space;
 
 pub use catalogue::{build as build_catalogue, Catalogue, CatalogueConfig, Oracle};
-pub use probe::{feature, similarity, Feature, Metric, Probe};
+pub use probe::{canonical, feature, similarity, Feature, Metric, Probe, TargetTooSmall};
 pub use search::{match_target, Candidate, MatchConfig, MatchError, MatchRecord, Status};
 pub use simplex::{minimise, SimplexConfig, SimplexResult};
 pub use space::{AxisOverride, Space, SpaceError};

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::catalogue::Oracle;
 use super::space::Space;
+use crate::raster::resample::{crop, resize, Filter};
 use crate::raster::Image;
 use crate::synth::metrics::{
     power_feature, power_similarity, pyramid_feature, pyramid_feature_distance, PowerFeature, PowerParams,
@@ -57,6 +58,21 @@ pub fn similarity(a: &Feature, b: &Feature) -> f64 {
         (Feature::Pyramid(a), Feature::Pyramid(b)) => pyramid_feature_distance(a, b).map_or(0.0, |d| 1.0 - d),
         _ => 0.0,
     }
+}
+
+/// Why a target cannot be compared.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("the target is {0} x {1}: matching needs at least {MIN_SIDE} x {MIN_SIDE} pixels")]
+pub struct TargetTooSmall(pub usize, pub usize);
+
+/// A target as matching compares it: its centred square, resampled to `side × side`.
+pub fn canonical(img: &Image, side: usize) -> Result<Image, TargetTooSmall> {
+    let s = img.width.min(img.height);
+    if s < MIN_SIDE {
+        return Err(TargetTooSmall(img.width, img.height));
+    }
+    let square = crop(img, (img.width - s) / 2, (img.height - s) / 2, s, s).expect("the square is inside the image");
+    Ok(if s == side { square } else { resize(&square, side, side, Filter::Bilinear) })
 }
 
 /// Renders points of a search space at `side × side` over the unit square and takes their
