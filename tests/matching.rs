@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::Project;
+use common::{ran, Project};
 
 fn scene(target: &str, props: &str) -> String {
     format!(
@@ -67,4 +67,24 @@ fn a_match_is_written_only_as_a_record_a_snippet_or_a_picture() {
     let text = scene(BAR, "  candidates = \"bar\"\n").replace("\"m.png\"", "\"m.exr\"");
     let p = Project::new(&[("scene.tess", &text)]);
     p.refuses("`.toml`, `.tess` or `.png`", "\"m.exr\"");
+}
+
+const TWO: &str = "scene {\n  seed = 2\n  size = 64 x 64\n}\n\n\
+shader a {\n  pattern = bar(width = 0.37)\n}\n\nshader b {\n  pattern = circle(radius = 0.3)\n}\n\n\
+match ma {\n  target = a\n  candidates = \"bar, circle\"\n  side = 32\n}\n\n\
+match mb {\n  target = b\n  candidates = \"circle, bar\"\n  side = 32\n}\n\n\
+output \"ma.toml\" {\n  from = ma\n}\n\noutput \"mb.toml\" {\n  from = mb\n}\n";
+
+#[test]
+fn matches_share_catalogues_and_an_edited_target_reruns_only_its_match() {
+    // F46 (the target half): catalogues are keyed apart from any target and shared.
+    let p = Project::new(&[("scene.tess", TWO)]);
+    let (run, first) = p.build_report(&["scene.tess"]);
+    run.ok();
+    let catalogues: Vec<&common::Stage> = first.iter().filter(|s| s.kind == "match.catalogue").collect();
+    assert_eq!(catalogues.len(), 2, "one catalogue per shader, not per match: {first:?}");
+    p.write("scene.tess", &TWO.replace("radius = 0.3", "radius = 0.25"));
+    let (run, second) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(ran(&second), vec!["match mb", "match mb target", "output mb.toml", "shader b"]);
 }

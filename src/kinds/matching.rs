@@ -62,7 +62,7 @@ pub static SPEC: KindSpec = KindSpec {
         prop("target", Ty::Ref(&[Value::Image]), Default::Required, "The image to reproduce; its centred square is compared, resampled to `side`."),
         prop("candidates", Ty::Str, Default::Absent, "The shaders to try, by name, separated by commas or spaces (`\"brick, weave\"`); every library shader when absent."),
         prop("metric", Ty::Enum(METRICS.names), Default::Text("power"), "How renders are compared: `power` (the 2-D power spectrum S_F, sensitive to orientation, blind to position), `log_power` (its log-power variant, each spectrum scaled to unit length) or `pyramid` (Laplacian-pyramid histograms S_L)."),
-        prop("side", Ty::Int(16, 1024), Default::Text("128"), "Pixels across the canonical square renders and the target are compared at."),
+        prop("side", Ty::Int(16, 256), Default::Text("128"), "Pixels across the canonical square renders and the target are compared at (at most 256, the thesis's renders: every catalogue holds a spectrum of side² / 2 numbers per render)."),
         prop("seeds", Ty::Int(0, 64), Default::Text("8"), "Local searches beyond one from each candidate's best catalogue render."),
         prop("residual", Ty::Number(Unit::Plain, Range { min: 0.0, max: 1.0 }), Default::Text("0.8"), "Calibrated similarity below which the result is `no good match` (1: identical; 1/e: as alike as two unrelated renders of the library)."),
         prop("accept", Ty::Number(Unit::Plain, Range { min: 0.0, max: 1.0 }), Default::Absent, "Stop searching as soon as a result reaches this calibrated similarity (fewer renders, maybe not the best match)."),
