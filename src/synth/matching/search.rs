@@ -1,7 +1,9 @@
 //! Matching a target image against catalogued shaders ([references: bourque §4.3] and §4.4):
 //!
 //! 1. **Screening**: each shader's screening subset against the target; shaders whose best
-//!    calibrated similarity reaches `screen` stay, and the `keep` best always do.
+//!    calibrated similarity reaches `screen` stay, and the `keep` best always do (16 by
+//!    default, the whole library: the scan of every catalogue costs less than one local
+//!    search, and a 16-render subset can miss a shader's narrow basin altogether).
 //! 2. **Scan** (Eq. 4.6): every vertex of the kept catalogues; the best `per_shader` of each
 //!    shader; of those, the best of every shader and the `seeds` best others, in decreasing
 //!    similarity, seeds within `tie` of each other taken smoothest first
