@@ -29,17 +29,17 @@ use crate::synth::metrics::{PowerFeature, PowerParams, PyramidParams};
 use crate::synth::shader::{self as lib, ParamKind, ShaderDef};
 
 #[derive(Clone, Copy)]
-enum MetricChoice {
+pub(super) enum MetricChoice {
     Power,
     LogPower,
     Pyramid,
 }
 
-crate::choices!(METRICS: MetricChoice {
+crate::choices!(pub(super) METRICS: MetricChoice {
     "power" => MetricChoice::Power, "log_power" => MetricChoice::LogPower, "pyramid" => MetricChoice::Pyramid
 });
 
-fn metric(choice: MetricChoice) -> Metric {
+pub(super) fn metric(choice: MetricChoice) -> Metric {
     match choice {
         MetricChoice::Power => Metric::Power(PowerParams::default()),
         MetricChoice::LogPower => Metric::Power(PowerParams::log_power()),
@@ -242,10 +242,27 @@ fn run_search(cx: &RunCx, k: &SearchKey) -> Result<Matched, StageError> {
     Ok(Matched { record, seed: k.seed, side: k.side })
 }
 
+/// The shaders a match may find: its candidates.
+pub(super) fn candidate_shaders(d: &Decl) -> Result<Vec<&'static ShaderDef>, Diagnostic> {
+    candidates(d)
+}
+
 /// The shaders `candidates` names, or the whole library.
 fn candidates(d: &Decl) -> Result<Vec<&'static ShaderDef>, Diagnostic> {
     let Some(crate::lang::Val::Str(text)) = d.props.get("candidates") else { return Ok(lib::LIBRARY.to_vec()) };
     let span = d.props.span("candidates").unwrap_or(d.name_span);
+    let out = shader_list(text, span)?;
+    if out.is_empty() {
+        return Err(Diagnostic::error("a match needs at least one candidate shader")
+            .with_code("tessera::match")
+            .with_label(span, "no shader named here")
+            .with_help("name shaders (`\"brick, weave\"`) or leave `candidates` out to try the whole library"));
+    }
+    Ok(out)
+}
+
+/// Library shaders named in `text`, separated by commas or spaces, each once.
+pub(super) fn shader_list(text: &str, span: crate::lang::source::Span) -> Result<Vec<&'static ShaderDef>, Diagnostic> {
     let mut out: Vec<&'static ShaderDef> = Vec::new();
     for name in text.split(|c: char| c == ',' || c.is_whitespace()).filter(|s| !s.is_empty()) {
         let Some(def) = lib::shader(name) else {
@@ -259,13 +276,33 @@ fn candidates(d: &Decl) -> Result<Vec<&'static ShaderDef>, Diagnostic> {
             out.push(def);
         }
     }
-    if out.is_empty() {
-        return Err(Diagnostic::error("a match needs at least one candidate shader")
-            .with_code("tessera::match")
-            .with_label(span, "no shader named here")
-            .with_help("name shaders (`\"brick, weave\"`) or leave `candidates` out to try the whole library"));
-    }
     Ok(out)
+}
+
+/// The catalogue of `def` at `side` under `metric`, shared by every match and transformation
+/// of the scene that needs it.
+pub(super) fn plan_catalogue(
+    p: &mut Planner,
+    def: &'static ShaderDef,
+    side: usize,
+    metric: Metric,
+    config: &CatalogueConfig,
+) -> Handle<ShaderCatalogue> {
+    // One seed for every catalogue and render, from the scene's seed but not the match's
+    // name: every match of a scene shares the catalogues, and a stochastic shader's renders
+    // agree between the catalogue and the search.
+    let seed = catalogue_seed(p);
+    let key = CatalogueKey { shader: def.name, version: def.version, side, metric, config: config.clone(), seed };
+    let id = serde_json::to_string(&key).expect("a catalogue key serialises");
+    p.shared(id, |p| {
+        let stage = FnStage::keyed("match.catalogue", 1, key, run_catalogue);
+        p.add(format!("catalogue {}", def.name), stage, Inputs::new(), vec![])
+    })
+}
+
+/// The seed of catalogues and of the renders compared with them.
+pub(super) fn catalogue_seed(p: &Planner) -> u64 {
+    p.scene_seed_for("match", "catalogue")
 }
 
 /// The match kind.
@@ -282,20 +319,11 @@ impl super::Kind for MatchKind {
         let side = props.int("side") as usize;
         let metric = metric(METRICS.get(props.enumeration("metric")));
         let config = CatalogueConfig { cap: props.int("catalogue") as usize, ..CatalogueConfig::default() };
-        // One seed for every catalogue and render, from the scene's seed but not the match's
-        // name: every match of a scene shares the catalogues, and a stochastic shader's
-        // renders agree between the catalogue and the search.
-        let seed = p.scene_seed_for("match", "catalogue");
+        let seed = catalogue_seed(p);
         let mut inputs = Inputs::new();
         let mut catalogues = Vec::new();
         for def in defs {
-            let key =
-                CatalogueKey { shader: def.name, version: def.version, side, metric, config: config.clone(), seed };
-            let id = serde_json::to_string(&key).expect("a catalogue key serialises");
-            let h: Handle<ShaderCatalogue> = p.shared(id, |p| {
-                let stage = FnStage::keyed("match.catalogue", 1, key, run_catalogue);
-                p.add(format!("catalogue {}", def.name), stage, Inputs::new(), vec![])
-            });
+            let h = plan_catalogue(p, def, side, metric, &config);
             catalogues.push((def.name, inputs.add(h)));
         }
         let at = props.span("target").unwrap_or(d.name_span);
@@ -364,7 +392,7 @@ impl super::Kind for MatchKind {
                 .with_label(d.name_span, "here"))
             }
         };
-        Ok(Some(super::ViewNode { node, exact: false }))
+        Ok(Some(super::ViewNode { node, exact: false, more: Vec::new() }))
     }
 }
 
@@ -387,7 +415,7 @@ fn side_by_side(m: &Matched, target: &Image) -> Result<Image, StageError> {
 }
 
 /// The flat values of a shader as named arguments in the language's syntax.
-fn arguments(def: &ShaderDef, values: &[f64]) -> Vec<(&'static str, String)> {
+pub(super) fn arguments(def: &ShaderDef, values: &[f64]) -> Vec<(&'static str, String)> {
     let mut at = 0;
     def.params
         .iter()
@@ -417,7 +445,7 @@ fn arguments(def: &ShaderDef, values: &[f64]) -> Vec<(&'static str, String)> {
 }
 
 /// Six significant digits: finer than any render shows, short enough to edit.
-fn round(v: f64) -> String {
+pub(super) fn round(v: f64) -> String {
     let s = format!("{:.6e}", v);
     let parsed: f64 = s.parse().expect("a formatted float parses");
     if parsed == 0.0 {

@@ -18,6 +18,7 @@ mod scene;
 mod shader;
 mod structure;
 mod surface;
+mod transform;
 
 use std::any::Any;
 use std::collections::HashMap;
@@ -68,6 +69,7 @@ pub static KINDS: &[&dyn Kind] = &[
     &procedural::ProceduralKind,
     &shader::ShaderKind,
     &matching::MatchKind,
+    &transform::TransformKind,
     &layer::Layer,
     &library::Library,
     &model::ModelKind,
@@ -102,6 +104,9 @@ pub struct OutputRequest<'a> {
 pub struct ViewNode {
     pub node: Handle<Bytes>,
     pub exact: bool,
+    /// The files a view writes under names of its own (a frame sequence), instead of the
+    /// output's name; `node` is then the first of them.
+    pub more: Vec<(String, Handle<Bytes>)>,
 }
 
 /// The colour space an image's values are in.

@@ -438,7 +438,7 @@ impl super::Kind for ModelKind {
                 .with_label(d.name_span, "here"))
             }
         };
-        Ok(Some(super::ViewNode { node, exact: false }))
+        Ok(Some(super::ViewNode { node, exact: false, more: Vec::new() }))
     }
 }
 

@@ -108,6 +108,10 @@ impl Props {
         self.get(name).map(|_| self.num(name))
     }
 
+    pub fn opt_int(&self, name: &str) -> Option<i64> {
+        self.get(name).map(|_| self.int(name))
+    }
+
     pub fn int(&self, name: &str) -> i64 {
         match self.expect(name) {
             Val::Int(v) => *v,

@@ -79,6 +79,8 @@ pub enum Value {
     Procedural,
     /// A shader and parameters matched to a target image.
     Match,
+    /// A sequence of frames between key textures.
+    Transform,
 }
 
 impl Value {
@@ -95,6 +97,7 @@ impl Value {
             Value::Model => "a model",
             Value::Procedural => "a procedural texture",
             Value::Match => "a match",
+            Value::Transform => "a transformation",
         }
     }
 }

@@ -111,7 +111,7 @@ pub fn generate(rng: &mut Rng) -> Generated {
                 // surface and a relief layer, which the relief tests build; needs a sample of
                 // 16² or more, which the pool's images rarely are (the procedural and matching
                 // tests build those).
-                "representation" | "model" | "procedural" | "match" => 0,
+                "representation" | "model" | "procedural" | "match" | "transform" => 0,
                 "output" => 1 + rng.below(2),
                 "map" => 1 + rng.below(2),
                 _ => usize::from(rng.chance(0.3)),

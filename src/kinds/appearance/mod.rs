@@ -596,7 +596,7 @@ fn plan_view(p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super
             vec![],
         );
         // Cluster ids are identities: a region in another cluster is another texture.
-        return Ok(Some(super::ViewNode { node, exact: true }));
+        return Ok(Some(super::ViewNode { node, exact: true, more: Vec::new() }));
     }
     if !matches!(
         view,
@@ -624,7 +624,7 @@ fn plan_view(p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super
     };
     let node =
         p.add(format!("output {}", d.name), FnStage::keyed("appearance.view", 1, work, run_view), inputs, vec![]);
-    Ok(Some(super::ViewNode { node, exact: false }))
+    Ok(Some(super::ViewNode { node, exact: false, more: Vec::new() }))
 }
 
 fn run_table(cx: &RunCx, w: &TableWork) -> Result<Bytes, StageError> {

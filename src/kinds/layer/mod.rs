@@ -177,7 +177,7 @@ impl super::Kind for Layer {
             let format = out.format;
             let stage = FnStage::keyed("output.image", 1, (depth, format), |cx, &(d, f)| encode_image(&cx.get(d), f));
             let node = p.add(format!("output {}", out.decl.name), stage, inputs, vec![]);
-            return Ok(Some(super::ViewNode { node, exact: false }));
+            return Ok(Some(super::ViewNode { node, exact: false, more: Vec::new() }));
         }
         if view == View::Auto {
             if let Some(span) = out.decl.props.span("light") {
@@ -198,7 +198,7 @@ impl super::Kind for Layer {
         }
         let node = plan_output(p, d, out.from, out.format, view)?;
         // Source positions are identities: a pixel taken from elsewhere is a regression.
-        Ok(Some(super::ViewNode { node, exact: view == View::Index }))
+        Ok(Some(super::ViewNode { node, exact: view == View::Index, more: Vec::new() }))
     }
 }
 

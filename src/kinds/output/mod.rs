@@ -20,7 +20,7 @@ pub static SPEC: KindSpec = KindSpec {
     props: &[
         PropSpec {
             name: "from",
-            ty: Ty::Ref(&[Value::Map, Value::Image, Value::Plane, Value::Structure, Value::Model, Value::Procedural, Value::Match]),
+            ty: Ty::Ref(&[Value::Map, Value::Image, Value::Plane, Value::Structure, Value::Model, Value::Procedural, Value::Match, Value::Transform]),
             default: Default::Required,
             doc: "What to write. Maps are written as data; 2-channel orientation fields as RGB (x, y → R, G); samples and layers in sRGB (EXR: linear); surfaces as their occupancy; structures as `view` says. A `.json` output of a sample chosen by `similar(...)` writes the ranking.",
         },
@@ -303,7 +303,14 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
     }
     let request = super::OutputRequest { decl: d, from, format, view, ext: &ext };
     if let Some(v) = super::kind(p.decl(from).kind).plan_output(p, &request)? {
-        p.outputs.push(planned(d, &name, v.node.node(), format, v.exact)?);
+        if v.more.is_empty() {
+            p.outputs.push(planned(d, &name, v.node.node(), format, v.exact)?);
+        }
+        for (more, node) in &v.more {
+            let more =
+                crate::graph::files::normal_relative(more).expect("a frame name is the output's name with digits");
+            p.outputs.push(planned(d, &more.to_string_lossy(), node.node(), format, v.exact)?);
+        }
         return Ok(v.node);
     }
     let src = p.decl(from);

@@ -177,7 +177,7 @@ fn plan_report(p: &mut Planner, out: &super::OutputRequest) -> Result<super::Vie
     let reporting = Reporting { capture: inputs.add(capture), fitted: inputs.add(fitted) };
     let stage = FnStage::keyed("representation.report", 1, reporting, report);
     let node = p.add(format!("output {}", out.decl.name), stage, inputs, vec![]);
-    Ok(super::ViewNode { node, exact: false })
+    Ok(super::ViewNode { node, exact: false, more: Vec::new() })
 }
 
 #[derive(serde::Serialize)]
@@ -266,7 +266,7 @@ pub fn plan_view(
         Viewing { surface: inputs.add(surface), look, light: [light.tilt_deg, light.slant_deg], format: out.format };
     let stage = FnStage::keyed("output.relightable", 1, viewing, draw);
     let node = p.add(format!("output {}", out.decl.name), stage, inputs, vec![]);
-    Ok(super::ViewNode { node, exact: false })
+    Ok(super::ViewNode { node, exact: false, more: Vec::new() })
 }
 
 /// The method of the representation behind `name`: a representation, or a layer quilted from
@@ -316,7 +316,7 @@ fn plan_ptm(
     let writing = PtmWriting { surface: inputs.add(surface), format };
     let stage = FnStage::keyed("output.ptm", 1, writing, write_ptm);
     let node = p.add(format!("output {}", out.decl.name), stage, inputs, vec![]);
-    Ok(super::ViewNode { node, exact: false })
+    Ok(super::ViewNode { node, exact: false, more: Vec::new() })
 }
 
 #[derive(serde::Serialize)]

@@ -347,7 +347,7 @@ impl super::Kind for Sample {
             Ok(super::library::ranking_json(&cx.get(ranking)))
         });
         let node = p.add(format!("output {}", out.decl.name), stage, inputs, vec![]);
-        Ok(Some(super::ViewNode { node, exact: false }))
+        Ok(Some(super::ViewNode { node, exact: false, more: Vec::new() }))
     }
 }
 

@@ -860,6 +860,6 @@ impl super::Kind for Structure {
         let exact =
             matches!(out.view, View::Labels | View::Labels16) || (out.view == View::Auto && !out.format.is_text());
         let node = plan_output(p, d, out.from, out.format, out.view, d.props.num("edge_width"))?;
-        Ok(Some(super::ViewNode { node, exact }))
+        Ok(Some(super::ViewNode { node, exact, more: Vec::new() }))
     }
 }

@@ -11,19 +11,29 @@
 //! - [`probe`]: the metric's features and similarity, and renders of a space's points;
 //! - [`catalogue`]: Eqs. 4.2–4.5, generic over what it samples;
 //! - [`simplex`]: the bounded Nelder–Mead;
-//! - [`search`]: screening, scan, refinement and the residual status.
+//! - [`search`]: screening, scan, refinement and the residual status;
+//! - [`path`], [`jump`], [`transform`]: transformations between textures
+//!   ([references: bourque §ch5]): p-norm paths over catalogue graphs, jump points between
+//!   shaders, midpoint subdivision and frame times.
 
 pub mod catalogue;
+pub mod jump;
+pub mod path;
 pub mod probe;
 pub mod search;
 pub mod simplex;
 pub mod space;
+pub mod transform;
 
 pub use catalogue::{build as build_catalogue, Catalogue, CatalogueConfig, Oracle};
+pub use jump::{jump_points, JumpConfig, JumpPoint, JumpSet};
 pub use probe::{canonical, feature, similarity, Feature, Metric, Probe, TargetTooSmall};
 pub use search::{match_target, Candidate, MatchConfig, MatchError, MatchRecord, Status};
 pub use simplex::{minimise, SimplexConfig, SimplexResult};
 pub use space::{AxisOverride, Space, SpaceError};
+pub use transform::{transform, Frame, Key, Link, TransformConfig, TransformError, Transformation};
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod transform_tests;

@@ -60,6 +60,15 @@ pub fn similarity(a: &Feature, b: &Feature) -> f64 {
     }
 }
 
+/// How much there is to see in a render: the length of its weighted power spectrum (0 for a
+/// flat image, whatever its colour); 1 under metrics that do not measure it.
+pub fn energy(f: &Feature) -> f64 {
+    match f {
+        Feature::Power(p) => p.weighted.iter().map(|&v| (v as f64).powi(2)).sum::<f64>().sqrt(),
+        Feature::Pyramid(_) => 1.0,
+    }
+}
+
 /// Why a target cannot be compared.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("the target is {0} x {1}: matching needs at least {MIN_SIDE} x {MIN_SIDE} pixels")]

@@ -120,13 +120,18 @@ pub enum MatchError {
 /// The library calibration: pairs of screening vertices of different shaders (or of one, if
 /// there is only one).
 pub fn library_calibration(cands: &[Candidate]) -> Calibration {
+    calibration_of(&cands.iter().map(|c| c.catalogue).collect::<Vec<_>>())
+}
+
+/// [`library_calibration`] of catalogues.
+pub fn calibration_of(cats: &[&Catalogue<Feature>]) -> Calibration {
     let mut sims = Vec::new();
-    for (a, ca) in cands.iter().enumerate() {
-        for cb in &cands[a + (cands.len() > 1) as usize..] {
-            for &i in &ca.catalogue.screen {
-                for &j in &cb.catalogue.screen {
-                    if !std::ptr::eq(ca, cb) || i < j {
-                        sims.push(similarity(&ca.catalogue.features[i], &cb.catalogue.features[j]));
+    for (a, ca) in cats.iter().enumerate() {
+        for (b, cb) in cats.iter().enumerate().skip(a + (cats.len() > 1) as usize) {
+            for &i in &ca.screen {
+                for &j in &cb.screen {
+                    if a != b || i < j {
+                        sims.push(similarity(&ca.features[i], &cb.features[j]));
                     }
                 }
             }

@@ -7,7 +7,7 @@ use super::catalogue::{kappa, pruned_set, redundancy, screening_subset};
 use super::*;
 use crate::synth::shader;
 
-fn probe(space: &Space, side: usize) -> Probe<'_> {
+pub(super) fn probe(space: &Space, side: usize) -> Probe<'_> {
     Probe { space, seed: 7, side, metric: Metric::default() }
 }
 
@@ -184,35 +184,42 @@ fn the_simplex_reaches_known_optima_inside_the_box() {
     assert!(minimise(rosenbrock, |_| {}, &[0.2, 0.9], &cfg, |_| false).iterations <= 7);
 }
 
-/// The library's catalogues at the default side, built once for the library tests.
-struct Library {
-    spaces: Vec<Space>,
-    catalogues: Vec<Catalogue<Feature>>,
+/// The library's catalogues at the default side, each built once, when a test first needs it.
+pub(super) struct Library {
+    pub spaces: Vec<Space>,
+    catalogues: Vec<OnceLock<Catalogue<Feature>>>,
 }
 
-const SIDE: usize = 128;
+pub(super) const SIDE: usize = 128;
 
-fn library() -> &'static Library {
+pub(super) fn library() -> &'static Library {
     static LIBRARY: OnceLock<Library> = OnceLock::new();
     LIBRARY.get_or_init(|| {
         let spaces: Vec<Space> = shader::LIBRARY.iter().map(|d| Space::new(d)).collect();
-        let catalogues =
-            spaces.iter().map(|s| build_catalogue(&probe(s, SIDE), &CatalogueConfig::default(), 1)).collect();
+        let catalogues = spaces.iter().map(|_| OnceLock::new()).collect();
         Library { spaces, catalogues }
     })
 }
 
-fn candidates(only: &[&str]) -> Vec<Candidate<'static>> {
-    let lib = library();
-    lib.spaces
-        .iter()
-        .zip(&lib.catalogues)
-        .filter(|(s, _)| only.is_empty() || only.contains(&s.shader.name))
-        .map(|(s, c)| Candidate { probe: probe(s, SIDE), catalogue: c })
-        .collect()
+impl Library {
+    pub fn catalogue(&'static self, i: usize) -> &'static Catalogue<Feature> {
+        self.catalogues[i]
+            .get_or_init(|| build_catalogue(&probe(&self.spaces[i], SIDE), &CatalogueConfig::default(), 1))
+    }
 }
 
-fn target(name: &str, set: &[(usize, f64)]) -> (Vec<f64>, Feature) {
+/// The library's shaders named in `only` (all when empty) with their catalogues, in the
+/// library's order.
+pub(super) fn candidates(only: &[&str]) -> Vec<Candidate<'static>> {
+    let lib = library();
+    let chosen: Vec<usize> =
+        (0..lib.spaces.len()).filter(|&i| only.is_empty() || only.contains(&lib.spaces[i].shader.name)).collect();
+    // Built here, on the test's thread: a rayon worker blocked on a cell another job of its own
+    // stack is filling would deadlock.
+    chosen.iter().map(|&i| Candidate { probe: probe(&lib.spaces[i], SIDE), catalogue: lib.catalogue(i) }).collect()
+}
+
+pub(super) fn target(name: &str, set: &[(usize, f64)]) -> (Vec<f64>, Feature) {
     let def = shader::shader(name).unwrap();
     let mut v = def.defaults();
     for &(i, x) in set {
@@ -283,7 +290,7 @@ fn screening_scans_only_the_candidates_and_the_scan_finds_a_catalogue_image() {
     let lib = library();
     let circle = lib.spaces.iter().position(|s| s.shader.name == "circle").unwrap();
     let v = 17;
-    let f = lib.catalogues[circle].features[v].clone();
+    let f = lib.catalogue(circle).features[v].clone();
     let cands = candidates(&["circle", "rectangle"]);
     let r = match_target(&f, &cands, &MatchConfig::default()).unwrap();
     assert!(r.scanned.iter().all(|s| s == "circle" || s == "rectangle"));
