@@ -63,7 +63,7 @@ fn a_match_can_be_a_key_and_an_edit_reruns_only_what_follows() {
     p.write("scene.tess", &text.replace("width = 0.8", "width = 0.7"));
     let (run, second) = p.build_report(&["scene.tess"]);
     run.ok();
-    assert_eq!(ran(&second), vec!["output t.toml", "shader wide", "transform t"]);
+    assert_eq!(ran(&second), vec!["output t.toml", "transform t"]);
 }
 
 #[test]
@@ -108,4 +108,16 @@ shader b {\n  pattern = circle(radius = 0.3)\n}\n\n\
 transform t {\n  keys = [a, b]\n  jump = 1\n  side = 32\n  catalogue = 40\n}\n\noutput \"t.toml\" {\n  from = t\n}\n";
     let p = Project::new(&[("scene.tess", text)]);
     p.refuses("no path joins key 0 to key 1", "[a, b]");
+}
+
+#[test]
+fn frames_do_not_depend_on_the_thread_count() {
+    let text = scene("[thin, wide]", "  frames = 4\n", OUTPUTS);
+    let one = Project::new(&[("scene.tess", &text)]);
+    one.tessera(&["build", "-j", "1", "scene.tess"]).ok();
+    let two = Project::new(&[("scene.tess", &text)]);
+    two.tessera(&["build", "-j", "2", "scene.tess"]).ok();
+    for f in ["t.toml", "t.png", "frames/f_00.png", "frames/f_03.png"] {
+        assert!(one.read(&format!("out/scene/{f}")) == two.read(&format!("out/scene/{f}")), "{f} differs");
+    }
 }

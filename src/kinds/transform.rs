@@ -149,8 +149,15 @@ fn run_path(cx: &RunCx, k: &PathKey) -> Result<Transformed, StageError> {
     Ok(Transformed { shaders: set.iter().map(|d| d.name.to_string()).collect(), record, jumps, seed: k.seed })
 }
 
+/// What a key is.
+#[derive(Clone, Copy, PartialEq)]
+enum KeyKind {
+    Shader,
+    Match,
+}
+
 /// The key declarations: `shader`s and `match`es, at least two.
-fn plan_keys(p: &Planner, d: &Decl) -> Result<Vec<(String, &'static str)>, Diagnostic> {
+fn plan_keys(p: &Planner, d: &Decl) -> Result<Vec<(String, KeyKind)>, Diagnostic> {
     let span = d.props.span("keys").unwrap_or(d.name_span);
     let names = d.props.refs("keys");
     if names.len() < 2 {
@@ -162,14 +169,16 @@ fn plan_keys(p: &Planner, d: &Decl) -> Result<Vec<(String, &'static str)>, Diagn
     names
         .iter()
         .map(|n| {
-            let kind: &str = &p.decl(n).kind;
-            match kind {
-                "shader" => Ok((n.clone(), "shader")),
-                "match" => Ok((n.clone(), "match")),
-                other => Err(Diagnostic::error(format!("`{n}` is a {other}: a key is a `shader` or a `match`"))
+            let kind = &p.decl(n).kind;
+            if *kind == super::shader::SPEC.name {
+                Ok((n.clone(), KeyKind::Shader))
+            } else if *kind == super::matching::SPEC.name {
+                Ok((n.clone(), KeyKind::Match))
+            } else {
+                Err(Diagnostic::error(format!("`{n}` is a {kind}: a key is a `shader` or a `match`"))
                     .with_code("tessera::transform")
                     .with_label(span, "here")
-                    .with_help("match an image first (`match m { target = … }`) and name the match")),
+                    .with_help("match an image first (`match m { target = … }`) and name the match"))
             }
         })
         .collect()
@@ -198,7 +207,7 @@ impl super::Kind for TransformKind {
         let mut possible: Vec<&'static ShaderDef> = via.clone();
         for (name, kind) in &keys {
             let decl = p.decl(name);
-            if *kind == "shader" {
+            if *kind == KeyKind::Shader {
                 let Some(Val::Call(call)) = decl.props.get("pattern") else {
                     unreachable!("the schema admits only calls")
                 };
