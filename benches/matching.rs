@@ -4,13 +4,17 @@
 //! the thesis: 12 minutes). One build is timed (it takes tens of seconds, too long for
 //! criterion's repeated samples); each match is timed from the target image to the record.
 //!
+//! Then transformations [references: bourque §ch5] with the catalogues built: the jump points
+//! between pairs of shaders and whole transformations, timed from the keys to the frames.
+//!
 //! `cargo bench --bench matching`
 
 use std::time::Instant;
 
 use tessera::raster::Image;
 use tessera::synth::matching::{
-    build_catalogue, canonical, feature, match_target, Candidate, CatalogueConfig, MatchConfig, Metric, Probe, Space,
+    build_catalogue, canonical, feature, jump_points, match_target, transform, Candidate, CatalogueConfig, JumpConfig,
+    Key, Link, MatchConfig, Metric, Probe, Space, TransformConfig,
 };
 use tessera::synth::shader::{render_square, shader, LIBRARY};
 
@@ -55,6 +59,56 @@ fn main() {
         println!("match 256² {name:30} -> {:12} S' {:.4} {:5} renders {secs:6.2} s", r.shader, r.score, r.renders);
     }
     println!("slowest match: {worst:.2} s (target < 5 s)");
+
+    let at = |name: &str| cands.iter().position(|c| c.probe.space.shader.name == name).unwrap();
+    let key = |name: &str, set: &[(usize, f64)]| {
+        let mut values = shader(name).unwrap().defaults();
+        for &(i, x) in set {
+            values[i] = x;
+        }
+        Key { shader: at(name), values }
+    };
+    let cases: Vec<(&str, Vec<&str>, Vec<Key>, f64)> = vec![
+        (
+            "weave tight -> loose",
+            vec!["weave"],
+            vec![
+                key("weave", &[(0, 10.0), (1, 0.7), (2, 0.7)]),
+                key("weave", &[(0, 4.0), (1, 0.35), (2, 0.5), (3, 0.52)]),
+            ],
+            0.8,
+        ),
+        (
+            "rectangle -> circle via superellipse",
+            vec!["rectangle", "circle", "superellipse"],
+            vec![key("rectangle", &[]), key("circle", &[])],
+            0.95,
+        ),
+        ("clouds -> starfield", vec!["clouds", "starfield"], vec![key("clouds", &[]), key("starfield", &[])], 0.8),
+    ];
+    for (name, set, keys, min_jump) in cases {
+        let t = Instant::now();
+        let ids: Vec<usize> = set.iter().map(|n| at(n)).collect();
+        let mut sets = Vec::new();
+        for (i, &a) in ids.iter().enumerate() {
+            for &b in &ids[i + 1..] {
+                let mut j = jump_points(&cands[a], &cands[b], &JumpConfig::default());
+                j.points.retain(|p| p.score >= min_jump);
+                sets.push((a, b, j));
+            }
+        }
+        let jumps = t.elapsed().as_secs_f64();
+        let links: Vec<Link> = sets.iter().map(|(a, b, j)| Link { a: *a, b: *b, jumps: j }).collect();
+        let r = transform(&cands, &links, &keys, &TransformConfig::default()).unwrap();
+        let secs = t.elapsed().as_secs_f64();
+        println!(
+            "transform {name:38} {:4} frames ({:4} inserted, {} below tau) {:5} renders; jumps {jumps:5.2} s, total {secs:6.2} s",
+            r.frames.len(),
+            r.inserted,
+            r.failed.len(),
+            r.renders
+        );
+    }
 }
 
 fn target(name: &str, set: &[(usize, f64)]) -> Image {

@@ -375,9 +375,10 @@ fn strip(t: &Transformed, frames: &[usize], size: usize) -> Result<Image, StageE
         .at_prop("frames")
         .with_help("set fewer `frames` or a smaller `size`"));
     }
-    let renders: Vec<Image> = frames.iter().map(|&i| render_frame(t, i, size)).collect::<Result<_, _>>()?;
     let mut out = Image::from_fn(w, h, 3, |_, _, _| 1.0);
-    for (k, img) in renders.iter().enumerate() {
+    // One frame in memory at a time.
+    for (k, &i) in frames.iter().enumerate() {
+        let img = render_frame(t, i, size)?;
         let (x0, y0) = ((k % PER_ROW) * (size + gap), (k / PER_ROW) * (size + gap));
         for y in 0..size {
             for x in 0..size {

@@ -12,7 +12,7 @@
 //! - [`catalogue`]: Eqs. 4.2–4.5, generic over what it samples;
 //! - [`simplex`]: the bounded Nelder–Mead;
 //! - [`search`]: screening, scan, refinement and the residual status;
-//! - [`path`], [`jump`], [`transform`]: transformations between textures
+//! - [`path`], [`jump`], [`transform`](mod@transform): transformations between textures
 //!   ([references: bourque §ch5]): p-norm paths over catalogue graphs, jump points between
 //!   shaders, midpoint subdivision and frame times.
 
