@@ -121,3 +121,21 @@ fn frames_do_not_depend_on_the_thread_count() {
         assert!(one.read(&format!("out/scene/{f}")) == two.read(&format!("out/scene/{f}")), "{f} differs");
     }
 }
+
+#[test]
+fn absurd_settings_stay_bounded() {
+    // τ = 1 is never reached: every gap halves to the depth cap and the frame budget, and the
+    // record says which gaps stayed below.
+    let text =
+        scene("[thin, wide]", "  tau = 1\n  depth = 16\n  exponent = 64\n", "output \"t.toml\" {\n  from = t\n}\n");
+    let p = Project::new(&[("scene.tess", &text)]);
+    p.tessera(&["build", "scene.tess"]).ok();
+    let record = String::from_utf8(p.read("out/scene/t.toml")).unwrap();
+    let inserted: usize = record.lines().find_map(|l| l.strip_prefix("inserted = ")).unwrap().parse().unwrap();
+    assert!(inserted <= 2000, "{inserted}");
+    assert!(!record.contains("below_tau = []"), "{record}");
+    // A thousand frames of 2048² are refused before anything is rendered.
+    let text = scene("[thin, wide]", "  frames = 1000\n  size = 2048\n", OUTPUTS).replace("  size = 32\n", "");
+    let p = Project::new(&[("scene.tess", &text)]);
+    p.refuses("memory", "2048");
+}

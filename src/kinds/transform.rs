@@ -264,6 +264,12 @@ impl super::Kind for TransformKind {
         let src = p.decl(out.from);
         let frames = src.props.opt_int("frames").map(|n| n as usize);
         let size = src.props.int("size") as usize;
+        // A scene's outputs are held until all are written: a sequence's frames together, a
+        // strip whole (its frame count is known here only when `frames` is set).
+        let count = if d.name.contains('#') { frames } else { frames.map(strip_frames) };
+        if let Some(n) = count {
+            p.check_pixels(src, src.props.span("size"), (size, size * n), BYTES_PER_PIXEL)?;
+        }
         let transformed: Handle<Transformed> = p.result(out.from);
         let hashes = d.name.matches('#').count();
         let mut inputs = Inputs::new();
@@ -359,9 +365,19 @@ fn render_frame(t: &Transformed, i: usize, size: usize) -> Result<Image, StageEr
     lib::render_square(def, &f.values, t.seed, size).map_err(|e| StageError::new(e.to_string()))
 }
 
+/// Working memory per output pixel: the render and the encoded copy.
+const BYTES_PER_PIXEL: f64 = 16.0;
+
+/// Frames to a strip's row.
+const PER_ROW: usize = 16;
+
+/// The frames' worth of pixels a strip of `n` frames holds (a full last row).
+fn strip_frames(n: usize) -> usize {
+    n.div_ceil(PER_ROW) * PER_ROW.min(n)
+}
+
 /// Frames side by side, at most 16 to a row.
 fn strip(t: &Transformed, frames: &[usize], size: usize) -> Result<Image, StageError> {
-    const PER_ROW: usize = 16;
     let gap = (size / 32).max(2);
     let cols = frames.len().clamp(1, PER_ROW);
     let rows = frames.len().div_ceil(PER_ROW).max(1);
