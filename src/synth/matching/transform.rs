@@ -226,7 +226,16 @@ pub fn subdivide<P: Send + Sync>(
         }
         let mids: Vec<Option<Option<P>>> = open
             .par_iter()
-            .map(|&i| if close(&points[i], &points[i + 1]) { None } else { Some(mid(&points[i], &points[i + 1])) })
+            .map(|&i| {
+                if close(&points[i], &points[i + 1]) {
+                    None
+                } else if gaps[i] == Gap::Open(0) {
+                    // Failed either way: no render for a midpoint that cannot be kept.
+                    Some(None)
+                } else {
+                    Some(mid(&points[i], &points[i + 1]))
+                }
+            })
             .collect();
         let mut new_points = Vec::with_capacity(points.len() * 2);
         let mut new_gaps = Vec::with_capacity(gaps.len() * 2);
@@ -237,7 +246,6 @@ pub fn subdivide<P: Send + Sync>(
             let outcome = if mids.peek().is_some_and(|(j, _)| *j == i) { mids.next().map(|(_, m)| m) } else { None };
             match (g, outcome) {
                 (Gap::Open(_), Some(None)) => new_gaps.push(Gap::Close),
-                (Gap::Open(0), Some(Some(_))) => new_gaps.push(Gap::Failed),
                 (Gap::Open(_), Some(Some(None))) => new_gaps.push(Gap::Failed),
                 (Gap::Open(d), Some(Some(Some(m)))) => {
                     if inserted < budget {
