@@ -26,6 +26,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::catalogue::Catalogue;
 use super::jump::JumpSet;
 use super::path::{pnorm_path, Graph};
 use super::probe::{feature, similarity, Feature};
@@ -143,7 +144,7 @@ impl Renderer<'_> {
 
 /// The catalogue vertex most like `f` (the thesis's link from an endpoint to its shader's
 /// graph, Sec. 5.2; a leg's graph joins its keys to every vertex, which includes this one).
-pub fn nearest_vertex(f: &Feature, catalogue: &super::Catalogue<Feature>) -> Option<usize> {
+pub fn nearest_vertex(f: &Feature, catalogue: &Catalogue<Feature>) -> Option<usize> {
     let s: Vec<f64> = catalogue.features.par_iter().map(|g| similarity(f, g)).collect();
     (0..s.len()).max_by(|&a, &b| s[a].total_cmp(&s[b]).then(b.cmp(&a)))
 }
