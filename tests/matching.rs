@@ -53,6 +53,11 @@ fn bad_match_input_is_a_diagnostic_at_its_span() {
         (BAR, "  seeds = -1\n", "-1", "-1"),
         (BAR, "  catalogue = 0\n", "catalogue", "0"),
         (BAR, "  metric = \"fourier\"\n", "fourier", "\"fourier\""),
+        (BAR, "  optimiser = newton\n", "`newton` is not one of `simplex`, `gradient`", "newton"),
+        (BAR, "  accept = -0.5\n", "-0.5", "-0.5"),
+        (BAR, "  residual = -1\n", "-1", "-1"),
+        (BAR, "  side = 1000000\n", "1000000", "1000000"),
+        (BAR, "  catalogue = 99999999999\n", "99999999999", "99999999999"),
         ("shader t {\n  pattern = bar()\n  size = 12 x 40\n}", "  candidates = \"bar\"\n", "16 x 16", "t"),
     ];
     for (target, props, message, label) in cases {
@@ -87,4 +92,87 @@ fn matches_share_catalogues_and_an_edited_target_reruns_only_its_match() {
     let (run, second) = p.build_report(&["scene.tess"]);
     run.ok();
     assert_eq!(ran(&second), vec!["match mb", "match mb target", "output mb.toml", "shader b"]);
+}
+
+#[test]
+fn switching_the_metric_reruns_what_follows_feature_extraction_and_nothing_before() {
+    // F10: the metric is part of every catalogue's, target feature's and search's key, and of
+    // nothing upstream (the target's render).
+    let p = Project::new(&[("scene.tess", TWO)]);
+    let (run, _) = p.build_report(&["scene.tess"]);
+    run.ok();
+    for metric in ["pyramid", "log_power"] {
+        let text = TWO.replace("side = 32\n", &format!("side = 32\n  metric = {metric}\n"));
+        p.write("scene.tess", &text);
+        let (run, stages) = p.build_report(&["scene.tess"]);
+        run.ok();
+        let kinds = |status: &[&str]| {
+            let mut k: Vec<&str> =
+                stages.iter().filter(|s| status.contains(&s.status.as_str())).map(|s| s.kind.as_str()).collect();
+            k.sort();
+            k.dedup();
+            k
+        };
+        let rerun = kinds(&["ran", "rebuilt"]);
+        assert_eq!(
+            rerun,
+            vec!["match.catalogue", "match.search", "match.target", "output.match_record"],
+            "{metric}: {stages:?}"
+        );
+        assert_eq!(stages.iter().filter(|s| s.kind == "match.catalogue" && s.status == "ran").count(), 2);
+        assert!(kinds(&["hit", "memory", "fresh"]).iter().any(|k| k.starts_with("shader")), "{stages:?}");
+    }
+}
+
+#[test]
+fn hostile_targets_are_matched_or_refused_never_scored_as_perfect() {
+    // Huge finite values (an HDR target whose spectrum would overflow), a flat black target and
+    // a tiny one: each gets a record with a real score or a diagnostic, never a panic or a NaN.
+    type Pixel = fn(usize, usize) -> f32;
+    let cases: [(&str, Pixel, usize); 3] = [
+        ("huge", |x, y| if (x / 8 + y / 8) % 2 == 0 { 1e30 } else { 0.0 }, 64),
+        ("flat", |_, _| 0.0, 64),
+        ("tiny", |_, _| 0.5, 8),
+    ];
+    for (name, pixel, side) in cases {
+        let p = Project::new(&[]);
+        exr::prelude::write_rgb_file(p.path("t.exr"), side, side, |x, y| {
+            let v = pixel(x, y);
+            (v, v, v)
+        })
+        .unwrap();
+        p.write(
+            "scene.tess",
+            &scene(
+                "sample t {\n  image = \"t.exr\"\n}",
+                "  candidates = \"bar, circle\"\n  side = 32\n  catalogue = 40\n",
+            ),
+        );
+        let run = p.tessera(&["build", "scene.tess"]);
+        let said = format!("{}{}", run.stdout(), run.stderr());
+        assert!(!said.contains("panicked"), "{name}: {said}");
+        if name == "tiny" {
+            run.failed();
+            assert!(said.contains("16 x 16"), "{said}");
+            continue;
+        }
+        run.ok();
+        let record = p.read_text("out/scene/m.toml");
+        assert!(!record.to_lowercase().contains("nan"), "{name}: {record}");
+        let score: f64 = record.lines().find_map(|l| l.strip_prefix("score = ")).unwrap().parse().unwrap();
+        assert!((0.0..=1.0).contains(&score), "{name}: {record}");
+        eprintln!("{name}: {}", record.lines().take(4).collect::<Vec<_>>().join(" | "));
+    }
+}
+
+#[test]
+fn a_match_does_not_depend_on_the_thread_count() {
+    let text = scene(BAR, "  candidates = \"bar, circle\"\n  side = 32\n  catalogue = 40\n");
+    let one = Project::new(&[("scene.tess", &text)]);
+    one.tessera(&["build", "-j", "1", "scene.tess"]).ok();
+    let two = Project::new(&[("scene.tess", &text)]);
+    two.tessera(&["build", "-j", "2", "scene.tess"]).ok();
+    for f in ["m.toml", "m.tess", "m.png"] {
+        assert!(one.read(&format!("out/scene/{f}")) == two.read(&format!("out/scene/{f}")), "{f} differs");
+    }
 }

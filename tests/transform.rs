@@ -78,6 +78,15 @@ fn bad_transform_input_is_a_diagnostic_at_its_span() {
         ("[thin, wide]", "  depth = -1\n", "-1", "-1"),
         ("[thin, wide]", "  frames = 1\n", "1", "1"),
         ("[thin, nowhere]", "", "nowhere", "nowhere"),
+        ("[thin, wide]", "  jump = -0.1\n", "-0.1", "-0.1"),
+        ("[thin, wide]", "  jump = 1.5\n", "1.5", "1.5"),
+        ("[thin, wide]", "  presence = 2\n", "2", "2"),
+        ("[thin, wide]", "  coherence = -1\n", "-1", "-1"),
+        ("[thin, wide]", "  size = 0\n", "0", "0"),
+        ("[thin, wide]", "  size = 4096\n", "4096", "4096"),
+        ("[thin, wide]", "  side = 8\n", "8", "8"),
+        ("[thin, wide]", "  catalogue = 0\n", "0", "0"),
+        ("[thin, wide]", "  metric = fourier\n", "`fourier` is not one of `power`", "fourier"),
     ];
     for (keys, props, message, label) in cases {
         let text = scene(keys, props, "output \"t.toml\" {\n  from = t\n}\n")
@@ -134,6 +143,16 @@ fn absurd_settings_stay_bounded() {
     let inserted: usize = record.lines().find_map(|l| l.strip_prefix("inserted = ")).unwrap().parse().unwrap();
     assert!(inserted <= 2000, "{inserted}");
     assert!(!record.contains("below_tau = []"), "{record}");
+    // The edges of every unit range are legal and bounded: no jump floor, no presence floor,
+    // coherence demanding identical neighbours (halving stops at the budget).
+    for props in ["  jump = 0\n  presence = 0\n  coherence = 0\n", "  jump = 1\n  presence = 1\n  tau = 0\n"] {
+        let text = scene("[thin, wide]", props, "output \"t.toml\" {\n  from = t\n}\n");
+        let p = Project::new(&[("scene.tess", &text)]);
+        p.tessera(&["build", "scene.tess"]).ok();
+        let record = String::from_utf8(p.read("out/scene/t.toml")).unwrap();
+        let inserted: usize = record.lines().find_map(|l| l.strip_prefix("inserted = ")).unwrap().parse().unwrap();
+        assert!(inserted <= 2000, "{props}: {inserted}");
+    }
     // A thousand frames of 2048² are refused before anything is rendered.
     let text = scene("[thin, wide]", "  frames = 1000\n  size = 2048\n", OUTPUTS).replace("  size = 32\n", "");
     let p = Project::new(&[("scene.tess", &text)]);

@@ -237,20 +237,50 @@ impl<O: Oracle> Builder<'_, O> {
         for x in &mut points {
             self.oracle.snap(x);
         }
+        // A point offered twice, or snapped onto a vertex (whole numbers, the cube's walls), is
+        // a duplicate without being rendered again.
+        let bits = |x: &[f64]| -> Vec<u64> { x.iter().map(|c| c.to_bits()).collect() };
+        let mut seen: std::collections::HashSet<Vec<u64>> = self.points.iter().map(|x| bits(x)).collect();
+        let offered = points.len();
+        points.retain(|x| seen.insert(bits(x)));
+        let repeated = offered - points.len();
         let feats = self.features(&points);
-        self.offer_rendered(points, feats)
+        let (kept, duplicates) = self.offer_rendered(points, feats, None);
+        (kept, duplicates + repeated)
     }
 
-    fn offer_rendered(&mut self, points: Vec<Vec<f64>>, feats: Vec<O::Feature>) -> (usize, usize) {
+    /// Offers rendered points in order. `known` holds the raw similarity of every pair of
+    /// these points (as [`pair_index`] orders them) when it was already computed, so no pair
+    /// is compared twice.
+    fn offer_rendered(
+        &mut self,
+        points: Vec<Vec<f64>>,
+        feats: Vec<O::Feature>,
+        known: Option<&[f64]>,
+    ) -> (usize, usize) {
         let first = self.points.len();
+        let n = points.len();
+        let mut batch = Vec::new(); // the offered index of each vertex kept by this call
         let mut duplicates = 0;
-        for (x, f) in points.into_iter().zip(feats) {
-            let row: Vec<f64> = self.features.par_iter().map(|g| self.sim(&f, g)).collect();
-            self.comparisons += row.len();
+        for (j, (x, f)) in points.into_iter().zip(feats).enumerate() {
+            let row: Vec<f64> = match known {
+                Some(raw) => {
+                    let old = &self.features[..first];
+                    let mut row: Vec<f64> = old.par_iter().map(|g| self.sim(&f, g)).collect();
+                    self.comparisons += row.len();
+                    row.extend(batch.iter().map(|&i| self.cal.apply(raw[pair_index(n, i, j)])));
+                    row
+                }
+                None => {
+                    self.comparisons += self.features.len();
+                    self.features.par_iter().map(|g| self.sim(&f, g)).collect()
+                }
+            };
             if row.iter().any(|&e| e > self.cfg.omega) {
                 duplicates += 1;
                 continue;
             }
+            batch.push(j);
             for (r, &e) in self.rows.iter_mut().zip(&row) {
                 r.push(e);
             }
@@ -266,7 +296,9 @@ impl<O: Oracle> Builder<'_, O> {
             .collect();
         for (h, renders) in fresh {
             self.roughness.push(h);
+            // Each neighbour is rendered once and compared once.
             self.features_computed += renders;
+            self.comparisons += renders;
         }
         (self.points.len() - first, duplicates)
     }
@@ -306,6 +338,17 @@ fn bisect_step<O: Oracle>(oracle: &O, x: &[f64], i: usize, sign: f64) -> Vec<f64
     d
 }
 
+/// The position of the pair `a < b` of `n` points in the order `(0, 1), (0, 2), …, (1, 2), …`.
+fn pair_index(n: usize, a: usize, b: usize) -> usize {
+    a * n - a * (a + 1) / 2 + (b - a - 1)
+}
+
+/// `count` points around `parent`, each coordinate within `radius` of the parent's (the
+/// radius is per axis, in normalised units) and inside the unit cube.
+pub fn local_samples(rng: &mut Rng, parent: &[f64], radius: f64, count: usize) -> Vec<Vec<f64>> {
+    (0..count).map(|_| parent.iter().map(|&c| (c + rng.range(-radius, radius)).clamp(0.0, 1.0)).collect()).collect()
+}
+
 fn uniform(rng: &mut Rng, dim: usize, n: usize) -> Vec<Vec<f64>> {
     (0..n).map(|_| (0..dim).map(|_| rng.next_f64()).collect()).collect()
 }
@@ -335,7 +378,7 @@ pub fn build<O: Oracle>(oracle: &O, cfg: &CatalogueConfig, seed: u64) -> Catalog
         features_computed: feats.len(),
         comparisons: raw.len(),
     };
-    b.offer_rendered(first, feats);
+    b.offer_rendered(first, feats, Some(&raw));
     let mut rounds = Vec::new();
     if dim > 0 {
         for _ in 0..cfg.rounds {
@@ -347,9 +390,7 @@ pub fn build<O: Oracle>(oracle: &O, cfg: &CatalogueConfig, seed: u64) -> Catalog
             let gamma = isolation(&b.rows, &b.roughness, cfg);
             let mut local = Vec::new();
             for &v in ranked(&gamma).iter().take(cfg.q) {
-                for _ in 0..cfg.local {
-                    local.push(b.points[v].iter().map(|&c| c + rng.range(-cfg.radius, cfg.radius)).collect());
-                }
+                local.extend(local_samples(&mut rng, &b.points[v], cfg.radius, cfg.local));
             }
             let (a, d) = b.offer(local);
             added += a;

@@ -51,12 +51,18 @@ pub fn feature(img: &Image, metric: &Metric) -> Feature {
 }
 
 /// The raw similarity of two features in `[0, 1]`; 0 for features of different metrics,
-/// options or sizes (they do not compare).
+/// options or sizes (they do not compare), and for any that is not a number (a NaN would
+/// otherwise calibrate to a perfect score).
 pub fn similarity(a: &Feature, b: &Feature) -> f64 {
-    match (a, b) {
+    let s = match (a, b) {
         (Feature::Power(a), Feature::Power(b)) => power_similarity(a, b).unwrap_or(0.0),
         (Feature::Pyramid(a), Feature::Pyramid(b)) => pyramid_feature_distance(a, b).map_or(0.0, |d| 1.0 - d),
         _ => 0.0,
+    };
+    if s.is_nan() {
+        0.0
+    } else {
+        s
     }
 }
 
@@ -74,13 +80,19 @@ pub fn energy(f: &Feature) -> f64 {
 #[error("the target is {0} x {1}: matching needs at least {MIN_SIDE} x {MIN_SIDE} pixels")]
 pub struct TargetTooSmall(pub usize, pub usize);
 
-/// A target as matching compares it: its centred square, resampled to `side × side`.
+/// A target as matching compares it: its centred square, resampled to `side × side`, clamped
+/// to `[0, 1]` as every render is (an HDR target's highlights would otherwise outweigh the
+/// whole spectrum, and huge values overflow it).
 pub fn canonical(img: &Image, side: usize) -> Result<Image, TargetTooSmall> {
     let s = img.width.min(img.height);
     if s < MIN_SIDE {
         return Err(TargetTooSmall(img.width, img.height));
     }
-    let square = crop(img, (img.width - s) / 2, (img.height - s) / 2, s, s).expect("the square is inside the image");
+    let mut square =
+        crop(img, (img.width - s) / 2, (img.height - s) / 2, s, s).expect("the square is inside the image");
+    for v in &mut square.data {
+        *v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    }
     Ok(if s == side { square } else { resize(&square, side, side, Filter::Bilinear) })
 }
 

@@ -10,10 +10,11 @@
 //!    (lowest `H`). A shader that passed screening always gets its own local search: its best
 //!    vertex can rank below another shader's near misses (a brick wall's peaks a little off
 //!    the target's score lower than a blur) and still be the only one in the right basin.
-//! 3. **Refinement**: the bounded simplex from each seed, `batch` seeds at a time (in
-//!    parallel; the batch size, not the thread count, fixes which seeds run, so results do not
-//!    depend on the machine), stopping early once a result reaches `accept_at`; then a sweep of
-//!    ±1 over the integer parameters of the best point.
+//! 3. **Refinement**: the bounded simplex (or, with [`Optimiser::Gradient`], conjugate
+//!    gradients) from each seed, `batch` seeds at a time (in parallel; the batch size, not the
+//!    thread count, fixes which seeds run, so results do not depend on the machine), stopping
+//!    early once a result reaches `accept_at`; then a sweep of ±1 over the integer parameters
+//!    of the best point.
 //! 4. **Status**: `matched` when the best calibrated similarity reaches `residual`, else
 //!    `no good match` (the target is outside what the library can make).
 //!
@@ -24,6 +25,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::catalogue::{Catalogue, Oracle};
+use super::gradient::{descend, GradientConfig};
 use super::probe::{similarity, Feature, Probe};
 use super::simplex::{minimise, SimplexConfig};
 use super::space::Space;
@@ -47,7 +49,10 @@ pub struct MatchConfig {
     /// Seeds whose calibrated similarities differ by at most this are ordered by roughness.
     pub tie: f64,
     pub batch: usize,
+    /// The local search refining each seed, and the settings of both.
+    pub optimiser: Optimiser,
     pub simplex: SimplexConfig,
+    pub gradient: GradientConfig,
     /// A calibrated similarity that ends the search as soon as a result reaches it.
     pub accept_at: Option<f64>,
     /// Calibrated similarity below which the result is `no good match`.
@@ -63,11 +68,23 @@ impl Default for MatchConfig {
             seeds: 8,
             tie: 0.005,
             batch: 2,
+            optimiser: Optimiser::Simplex,
             simplex: SimplexConfig::default(),
+            gradient: GradientConfig::default(),
             accept_at: None,
             residual: 0.8,
         }
     }
+}
+
+/// The local search of step 3.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Optimiser {
+    /// The bounded downhill simplex (the thesis's choice).
+    Simplex,
+    /// Conjugate gradients on finite differences (the thesis's alternative).
+    Gradient,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -208,13 +225,13 @@ pub fn match_target(target: &Feature, cands: &[Candidate], cfg: &MatchConfig) ->
             .map(|s| {
                 let c = &cands[s.cand];
                 let x0 = &c.catalogue.points[s.vertex];
-                let r = minimise(
-                    |x| 1.0 - similarity(&c.probe.feature(x), target),
-                    |x| c.probe.snap(x),
-                    x0,
-                    &cfg.simplex,
-                    |loss| cfg.accept_at.is_some_and(|a| cal.apply(1.0 - loss) >= a),
-                );
+                let loss = |x: &[f64]| 1.0 - similarity(&c.probe.feature(x), target);
+                let snap = |x: &mut [f64]| c.probe.snap(x);
+                let stop = |loss: f64| cfg.accept_at.is_some_and(|a| cal.apply(1.0 - loss) >= a);
+                let r = match cfg.optimiser {
+                    Optimiser::Simplex => minimise(loss, snap, x0, &cfg.simplex, stop),
+                    Optimiser::Gradient => descend(loss, snap, x0, &cfg.gradient, stop),
+                };
                 (s, r)
             })
             .collect();

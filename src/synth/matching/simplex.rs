@@ -34,9 +34,9 @@ impl Default for SimplexConfig {
     }
 }
 
-/// The outcome of [`minimise`].
+/// The outcome of a local search ([`minimise`] or [`descend`](super::gradient::descend)).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SimplexResult {
+pub struct LocalResult {
     pub x: Vec<f64>,
     pub loss: f64,
     pub iterations: usize,
@@ -56,7 +56,7 @@ pub fn minimise(
     x0: &[f64],
     cfg: &SimplexConfig,
     stop: impl Fn(f64) -> bool,
-) -> SimplexResult {
+) -> LocalResult {
     let n = x0.len();
     let mut evaluations = 0;
     let mut eval = |x: &mut Vec<f64>| {
@@ -73,7 +73,7 @@ pub fn minimise(
     let mut iterations = 0;
     let mut converged = false;
     if n == 0 || stop(best) {
-        return SimplexResult { x: best_x, loss: best, iterations, evaluations, trace, converged: n == 0 };
+        return LocalResult { x: best_x, loss: best, iterations, evaluations, trace, converged: n == 0 };
     }
     'runs: for _ in 0..=cfg.restarts {
         let mut pts = vec![best_x.clone()];
@@ -142,5 +142,5 @@ pub fn minimise(
             break;
         }
     }
-    SimplexResult { x: best_x, loss: best, iterations, evaluations, trace, converged }
+    LocalResult { x: best_x, loss: best, iterations, evaluations, trace, converged }
 }

@@ -63,6 +63,91 @@ fn construction_rejects_duplicates_and_connects_every_pair() {
     assert!(cat.rounds.iter().any(|r| r.duplicates > 0), "the test should exercise rejection");
 }
 
+/// [`Plane`] counting its feature extractions (by point) and its comparisons.
+#[derive(Default)]
+struct Counted {
+    features: std::sync::Mutex<std::collections::HashMap<Vec<u64>, usize>>,
+    comparisons: std::sync::atomic::AtomicUsize,
+}
+
+impl Oracle for Counted {
+    type Feature = [f64; 2];
+    fn dim(&self) -> usize {
+        2
+    }
+    fn feature(&self, x: &[f64]) -> [f64; 2] {
+        *self.features.lock().unwrap().entry(x.iter().map(|v| v.to_bits()).collect()).or_default() += 1;
+        Plane.feature(x)
+    }
+    fn similarity(&self, a: &[f64; 2], b: &[f64; 2]) -> f64 {
+        self.comparisons.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Plane.similarity(a, b)
+    }
+}
+
+#[test]
+fn features_are_extracted_once_per_render_and_each_pair_compared_once() {
+    // F11: N vertices (no duplicates, no refinement) cost N extractions and N(N−1)/2
+    // comparisons, beside the 2·dim neighbours of each vertex's roughness (one extraction and
+    // one comparison each). The builder's own counters agree with the oracle's.
+    let cfg = CatalogueConfig { rounds: 0, omega: 1.0, ..CatalogueConfig::default() };
+    let oracle = Counted::default();
+    let cat = build_catalogue(&oracle, &cfg, 11);
+    let n = cat.len();
+    assert_eq!(n, cfg.k);
+    let per_point = oracle.features.lock().unwrap().clone();
+    let twice: Vec<Vec<f64>> =
+        per_point.iter().filter(|(_, &c)| c > 1).map(|(k, _)| k.iter().map(|&b| f64::from_bits(b)).collect()).collect();
+    assert!(twice.is_empty(), "rendered more than once: {twice:?}");
+    let extractions: usize = per_point.values().sum();
+    let neighbours = extractions - n;
+    assert!(neighbours <= 2 * 2 * n);
+    let comparisons = oracle.comparisons.load(std::sync::atomic::Ordering::Relaxed);
+    assert_eq!(comparisons - neighbours, n * (n - 1) / 2);
+    assert_eq!((cat.features_computed, cat.comparisons), (extractions, comparisons));
+    eprintln!(
+        "F11: {n} vertices, {extractions} extractions ({neighbours} roughness neighbours), {comparisons} comparisons"
+    );
+
+    // With refinement and pruning, the counters still tell the truth and no point is
+    // extracted twice.
+    let oracle = Counted::default();
+    let cat = build_catalogue(&oracle, &CatalogueConfig { cap: 40, ..CatalogueConfig::default() }, 12);
+    let per_point = oracle.features.lock().unwrap().clone();
+    assert!(per_point.values().all(|&c| c == 1), "a point was rendered twice");
+    assert!(cat.rounds.iter().any(|r| r.duplicates > 0), "the test should offer duplicates");
+    assert_eq!(cat.features_computed, per_point.values().sum::<usize>());
+    assert_eq!(cat.comparisons, oracle.comparisons.load(std::sync::atomic::Ordering::Relaxed));
+}
+
+#[test]
+fn local_samples_stay_within_the_radius_of_their_parent() {
+    // F16: γ by hand on the matrix of F15 (roughness 1, 2, 4 → 0.25, 0.5, 1; nearest
+    // distances 0.5, 0.1, 0.1; farthest 0.8, 0.5, 0.8), α = β = 0.5.
+    let rows = vec![vec![1.0, 0.5, 0.2], vec![0.5, 1.0, 0.9], vec![0.2, 0.9, 1.0]];
+    let cfg = CatalogueConfig::default();
+    let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-12);
+    assert!(close(&catalogue::isolation(&rows, &[1.0, 2.0, 4.0], &cfg), &[0.375, 0.3, 0.55]));
+    let far = CatalogueConfig { gamma_farthest: true, ..cfg };
+    assert!(close(&catalogue::isolation(&rows, &[1.0, 2.0, 4.0], &far), &[0.525, 0.5, 0.9]));
+    // Local samples: per axis within r of the parent, inside the cube even at its corners.
+    let mut rng = crate::synth::rng::Rng::new(16);
+    for parent in [vec![0.5, 0.5, 0.5], vec![0.0, 1.0, 0.02], vec![0.999, 0.001, 0.3]] {
+        for radius in [0.0, 0.01, 0.05, 0.3] {
+            let points = catalogue::local_samples(&mut rng, &parent, radius, 50);
+            assert_eq!(points.len(), 50);
+            for p in &points {
+                for (c, q) in p.iter().zip(&parent) {
+                    assert!((c - q).abs() <= radius && (0.0..=1.0).contains(c), "{p:?} around {parent:?}");
+                }
+            }
+            if radius > 0.0 && parent[0] == 0.5 {
+                assert!(points.iter().any(|p| p != &parent), "samples must move");
+            }
+        }
+    }
+}
+
 #[test]
 fn roughness_is_larger_where_the_render_changes_faster() {
     // F14: brightness x⁸ changes fastest near 1; a linear ramp changes evenly.
@@ -249,7 +334,127 @@ fn deterministic_targets_off_the_catalogue_are_recovered_exactly() {
     assert_recovered("bar", &[(0, 0.37)]);
     assert_recovered("weave", &[(0, 7.3), (1, 0.55), (2, 0.42), (3, 0.3)]);
     let r = assert_recovered("star", &[(0, 4.0), (1, 0.15), (2, 0.4)]);
+    assert_recovered("brick", &[(0, 0.3), (1, 0.1), (2, 0.02)]);
     assert_eq!(r.values[0], 4.0);
+}
+
+#[test]
+fn conjugate_gradients_refine_a_match_too() {
+    // F26 in the matcher: the bar's width from an off-catalogue target, by gradients alone.
+    let (v, f) = target("bar", &[(0, 0.37)]);
+    let cfg = MatchConfig { optimiser: Optimiser::Gradient, ..MatchConfig::default() };
+    let r = match_target(&f, &candidates(&["bar", "circle"]), &cfg).unwrap();
+    assert_eq!((r.status, r.shader.as_str()), (Status::Matched, "bar"));
+    let space = Space::new(shader::shader("bar").unwrap());
+    let a = &space.axes[0];
+    let d = (r.values[a.index] - v[a.index]).abs() / (a.max - a.min);
+    eprintln!(
+        "F26: bar width {} for 0.37 (Δ {d:.5} of the range), S' {:.5}, {} renders",
+        r.values[a.index], r.score, r.renders
+    );
+    assert!(d <= 1.0 / 256.0 && r.score > 0.999, "{r:?}");
+    assert!(r.runs.iter().all(|run| run.iterations <= cfg.gradient.max_iterations));
+}
+
+#[test]
+fn stochastic_targets_are_matched_by_similarity_not_parameters() {
+    // F28: cyclone and clouds at random points, rendered with another seed than every render
+    // the matcher makes. Parameters are not compared: the claim is the similarity. The ceiling
+    // is what the generating parameters themselves score with the matcher's seed.
+    let lib = library();
+    let cands = candidates(&[]);
+    let mut rng = crate::synth::rng::Rng::new(28);
+    for name in ["cyclone", "clouds"] {
+        let space = lib.spaces.iter().find(|s| s.shader.name == name).unwrap();
+        for _ in 0..2 {
+            let x: Vec<f64> = (0..space.dim()).map(|_| rng.next_f64()).collect();
+            let img = shader::render_square(space.shader, &space.values(&x), 8, SIDE).unwrap();
+            let f = feature(&img, &Metric::default());
+            let r = match_target(&f, &cands, &MatchConfig::default()).unwrap();
+            let ceiling = r.calibration.apply(similarity(&probe(space, SIDE).feature(&x), &f));
+            eprintln!("F28 {name}: -> {} S' {:.4} (the generator with another seed: {ceiling:.4})", r.shader, r.score);
+            assert_eq!(r.status, Status::Matched);
+            assert!(r.score >= 0.9 && r.score >= ceiling - 0.02, "{name}: {} {} vs {ceiling}", r.shader, r.score);
+        }
+    }
+}
+
+/// The mean over `held` of (1 − the best calibrated similarity to any of `vertices`).
+fn coverage_gap(cal: crate::synth::metrics::Calibration, vertices: &[Feature], held: &[Feature]) -> f64 {
+    use rayon::prelude::*;
+    let gaps: Vec<f64> = held
+        .par_iter()
+        .map(|h| 1.0 - vertices.iter().map(|v| cal.apply(similarity(v, h))).fold(0.0, f64::max))
+        .collect();
+    gaps.iter().sum::<f64>() / gaps.len() as f64
+}
+
+/// Pairs of `vertices` more alike than ω.
+fn near_duplicates(cal: crate::synth::metrics::Calibration, vertices: &[Feature], omega: f64) -> usize {
+    (0..vertices.len())
+        .map(|a| (a + 1..vertices.len()).filter(|&b| cal.apply(similarity(&vertices[a], &vertices[b])) > omega).count())
+        .sum()
+}
+
+/// F19's comparison on one shader at equal budget: the library's adaptive catalogue, a uniform
+/// random catalogue and a grid of as many renders (at most), against 200 held-out random
+/// renders. Returns the mean gaps and the near-duplicate pair counts, in that order.
+fn adaptive_against_uniform(name: &str) -> ([f64; 3], [usize; 3]) {
+    use rayon::prelude::*;
+    let lib = library();
+    let i = lib.spaces.iter().position(|s| s.shader.name == name).unwrap();
+    let cat = lib.catalogue(i);
+    let p = probe(&lib.spaces[i], SIDE);
+    let (n, dim) = (cat.len(), p.dim());
+    let feats = |points: &[Vec<f64>]| -> Vec<Feature> { points.par_iter().map(|x| p.feature(x)).collect() };
+    let mut rng = crate::synth::rng::Rng::new(19);
+    let random: Vec<Vec<f64>> = (0..n).map(|_| (0..dim).map(|_| rng.next_f64()).collect()).collect();
+    let per_axis = ((n as f64).powf(1.0 / dim as f64).floor() as usize).max(1);
+    let cell = |k: usize, a: usize| ((k / per_axis.pow(a as u32)) % per_axis) as f64;
+    let grid: Vec<Vec<f64>> = (0..per_axis.pow(dim as u32))
+        .map(|k| (0..dim).map(|a| (cell(k, a) + 0.5) / per_axis as f64).collect())
+        .collect();
+    let held: Vec<Vec<f64>> = (0..200).map(|_| (0..dim).map(|_| rng.next_f64()).collect()).collect();
+    let held = feats(&held);
+    let (random, grid) = (feats(&random), feats(&grid));
+    let cal = cat.calibration;
+    let omega = CatalogueConfig::default().omega;
+    let sets = [&cat.features, &random, &grid];
+    let gaps = sets.map(|v| coverage_gap(cal, v, &held));
+    let dups = sets.map(|v| near_duplicates(cal, v, omega));
+    eprintln!(
+        "F19 {name} (dim {dim}): {n} renders; mean gap to 200 held-out renders: adaptive {:.4}, uniform random \
+         {:.4}, grid of {} {:.4}; pairs above ω: {} / {} / {}",
+        gaps[0],
+        gaps[1],
+        grid.len(),
+        gaps[2],
+        dups[0],
+        dups[1],
+        dups[2]
+    );
+    (gaps, dups)
+}
+
+#[test]
+fn adaptive_sampling_wastes_no_renders_on_near_duplicates() {
+    // F19, its second half, on the eyeball and the weave (Figs. 4-4 and 4-5).
+    for name in ["eyeball", "weave"] {
+        let (_, dups) = adaptive_against_uniform(name);
+        assert!(dups[0] < dups[1] && dups[0] <= dups[2], "{name}: {dups:?}");
+    }
+}
+
+#[test]
+#[ignore = "F19's first half fails: see the issue 17 note (λ pruning keeps renders unlike any other, \
+            which cover little of a parameter-uniform held-out set)"]
+fn adaptive_sampling_covers_held_out_renders_better_than_uniform_sampling() {
+    // F19, its first half: the mean of (1 − the best calibrated similarity to the catalogue)
+    // over 200 held-out random renders is lower for the adaptive catalogue.
+    for name in ["eyeball", "weave"] {
+        let (gaps, _) = adaptive_against_uniform(name);
+        assert!(gaps[0] < gaps[1] && gaps[0] < gaps[2], "{name}: {gaps:?}");
+    }
 }
 
 #[test]
