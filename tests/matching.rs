@@ -176,3 +176,33 @@ fn a_match_does_not_depend_on_the_thread_count() {
         assert!(one.read(&format!("out/scene/{f}")) == two.read(&format!("out/scene/{f}")), "{f} differs");
     }
 }
+
+#[test]
+fn check_compares_match_records_shader_exactly_and_numbers_within_the_tolerance() {
+    // F47: a record's golden check. Text compares exactly, numbers within the output's
+    // tolerance (2e-6 by default; the thesis's 1e-4 on the score when asked for).
+    let text = scene(BAR, "  candidates = \"bar, circle\"\n  side = 32\n  catalogue = 40\n");
+    let p = Project::new(&[("scene.tess", &text)]);
+    p.tessera(&["bless", "scene.tess"]).ok();
+    p.tessera(&["check", "scene.tess"]).ok();
+    let golden = p.read_text("golden/scene/m.toml");
+    let line = golden.lines().find(|l| l.starts_with("score = ")).unwrap();
+    let score: f64 = line["score = ".len()..].parse().unwrap();
+    let with_score = |s: f64| golden.replacen(line, &format!("score = {s:.7}"), 1);
+    let lenient =
+        text.replace("output \"m.toml\" {\n  from = m\n", "output \"m.toml\" {\n  from = m\n  tolerance = 0.0001\n");
+    // 5e-5 off: beyond the default, within 1e-4.
+    p.write("golden/scene/m.toml", &with_score(score - 5e-5));
+    let run = p.tessera(&["check", "scene.tess"]);
+    run.failed();
+    assert!(run.stdout().contains("FAIL") && run.stdout().contains("m.toml"), "{}", run.stdout());
+    p.write("scene.tess", &lenient);
+    p.tessera(&["check", "scene.tess"]).ok();
+    // 1e-3 off fails even then, and so does another shader.
+    p.write("golden/scene/m.toml", &with_score(score - 1e-3));
+    p.tessera(&["check", "scene.tess"]).failed();
+    p.write("golden/scene/m.toml", &golden.replacen("shader = \"bar\"", "shader = \"circle\"", 1));
+    let run = p.tessera(&["check", "scene.tess"]);
+    run.failed();
+    assert!(run.stdout().contains("found \"bar") && run.stdout().contains("golden has \"circle"), "{}", run.stdout());
+}

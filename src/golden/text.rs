@@ -81,6 +81,20 @@ pub fn compare_text(actual: &str, golden: &str, tolerance: f64) -> TextCompariso
                 }
             }
             (Token::Text(p), Token::Text(q)) if p == q => {}
+            (Token::Text(p), Token::Text(q)) => {
+                // Show where they part, not their common start.
+                let at = p
+                    .char_indices()
+                    .zip(q.chars())
+                    .find(|&((_, a), b)| a != b)
+                    .map_or(p.len().min(q.len()), |((k, _), _)| k);
+                let at = at.min(q.len());
+                let from = |s: &'_ str| -> String {
+                    format!("{:?}", s[at.min(s.len())..].chars().take(40).collect::<String>())
+                };
+                r.mismatch = Some(format!("token {i}, character {at}: found {}, golden has {}", from(p), from(q)));
+                break;
+            }
             _ => {
                 r.mismatch = Some(format!("token {i}: found {}, golden has {}", excerpt(x), excerpt(y)));
                 break;
@@ -107,6 +121,18 @@ fn excerpt(t: &Token) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_text_mismatch_shows_where_the_texts_part() {
+        let r = compare_text(
+            "status = \"matched\"\nshader = \"bar\"\n",
+            "status = \"matched\"\nshader = \"circle\"\n",
+            1.0,
+        );
+        assert!(!r.pass);
+        let m = r.mismatch.unwrap();
+        assert!(m.contains("found \"bar") && m.contains("golden has \"circle"), "{m}");
+    }
 
     #[test]
     fn numbers_within_tolerance_pass() {
