@@ -68,7 +68,7 @@ pub static SPEC: KindSpec = KindSpec {
         prop("metric", Ty::Enum(METRICS.names), Default::Text("power"), "How renders are compared: `power` (the 2-D power spectrum S_F, sensitive to orientation, blind to position), `log_power` (its log-power variant, each spectrum scaled to unit length) or `pyramid` (Laplacian-pyramid histograms S_L)."),
         prop("side", Ty::Int(16, 256), Default::Text("128"), "Pixels across the canonical square renders and the target are compared at (at most 256, the thesis's renders: every catalogue holds a spectrum of side² / 2 numbers per render)."),
         prop("seeds", Ty::Int(0, 64), Default::Text("8"), "Local searches beyond one from each candidate's best catalogue render."),
-        prop("optimiser", Ty::Enum(OPTIMISERS.names), Default::Text("simplex"), "The local search refining each seed: `simplex` (bounded Nelder–Mead, at most 100 iterations, the thesis's choice) or `gradient` (Polak–Ribière conjugate gradients on central differences with bounded Brent line searches, at most 30 iterations: 2 renders per searched parameter per step, for smooth shaders the simplex crawls on)."),
+        prop("optimiser", Ty::Enum(OPTIMISERS.names), Default::Text("simplex"), "The local search refining each seed: `simplex` (bounded Nelder–Mead, at most 100 iterations, the thesis's choice) or `gradient` (Polak–Ribière conjugate gradients on central differences with bounded Brent line searches, at most 30 iterations, 2 renders per searched parameter per gradient: the thesis's alternative for unforgiving cases)."),
         prop("residual", Ty::Number(Unit::Plain, Range { min: 0.0, max: 1.0 }), Default::Text("0.8"), "Calibrated similarity below which the result is `no good match` (1: identical; 1/e: as alike as two unrelated renders of the library)."),
         prop("accept", Ty::Number(Unit::Plain, Range { min: 0.0, max: 1.0 }), Default::Absent, "Stop searching as soon as a result reaches this calibrated similarity (fewer renders, maybe not the best match)."),
         prop("catalogue", Ty::Int(8, 2000), Default::Text("160"), "Renders kept in each shader's catalogue after pruning."),
@@ -337,7 +337,7 @@ impl super::Kind for MatchKind {
         let key = TargetKey { image: target_inputs.add(image), side, metric };
         let target: Handle<TargetFeature> = p.add(
             format!("match {} target", d.name),
-            FnStage::keyed("match.target", 1, key, run_target),
+            FnStage::keyed("match.target", 2, key, run_target),
             target_inputs,
             vec![],
         );
