@@ -15,7 +15,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::simplex::LocalResult;
+use super::simplex::{into_box, LocalResult};
 
 /// How a derivative is estimated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -244,10 +244,7 @@ pub fn descend(
     let n = x0.len();
     let mut evaluations = 0;
     let mut eval = |x: &mut Vec<f64>| {
-        for c in x.iter_mut() {
-            *c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
-        }
-        snap(x);
+        into_box(x, &snap);
         evaluations += 1;
         loss(x)
     };
@@ -312,10 +309,7 @@ pub fn descend(
         }
         if step_made {
             let mut p: Vec<f64> = x.iter().zip(&d).map(|(c, v)| c + t * v).collect();
-            for c in p.iter_mut() {
-                *c = c.clamp(0.0, 1.0);
-            }
-            snap(&mut p);
+            into_box(&mut p, &snap);
             let small = 2.0 * (f - ft).abs() <= cfg.ftol * (f.abs() + ft.abs()) + 1e-15;
             (x, f) = (p, ft);
             converged = small;
@@ -332,82 +326,4 @@ pub fn descend(
         (g_old, d_old) = (g, d);
     }
     LocalResult { x, loss: f, iterations, evaluations, trace, converged }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn sphere(x: &[f64]) -> f64 {
-        x.iter().map(|&c| (c - 0.3) * (c - 0.3)).sum()
-    }
-
-    fn rosenbrock(x: &[f64]) -> f64 {
-        let (u, v) = (4.0 * x[0] - 2.0, 4.0 * x[1] - 2.0);
-        (1.0 - u).powi(2) + 100.0 * (v - u * u).powi(2)
-    }
-
-    #[test]
-    fn conjugate_gradients_reach_known_optima_inside_the_box() {
-        // F26: the same analytic functions as the simplex's F25.
-        for (f, x0, optimum, tol, cap) in [
-            (sphere as fn(&[f64]) -> f64, vec![0.9, 0.1, 0.6], vec![0.3, 0.3, 0.3], 1e-3, 30),
-            (rosenbrock, vec![0.2, 0.9], vec![0.75, 0.75], 2e-2, 200),
-            // The optimum outside the box: the search stops on the wall.
-            (|x: &[f64]| (x[0] - 1.4).powi(2) + (x[1] - 0.5).powi(2), vec![0.2, 0.2], vec![1.0, 0.5], 1e-3, 30),
-        ] {
-            // Forward differences' O(h) error stalls them in Rosenbrock's curved valley (at
-            // h = 1e-3 they stop near (0.67, 0.62)); they are tested on the other two.
-            let modes: &[Differences] =
-                if cap == 200 { &[Differences::Central] } else { &[Differences::Central, Differences::Forward] };
-            for &differences in modes {
-                let mut outside = 0;
-                let cfg = GradientConfig { max_iterations: cap, differences, ..GradientConfig::default() };
-                let r = descend(
-                    |x| {
-                        outside += x.iter().any(|c| !(0.0..=1.0).contains(c)) as usize;
-                        f(x)
-                    },
-                    |_| {},
-                    &x0,
-                    &cfg,
-                    |_| false,
-                );
-                assert_eq!(outside, 0);
-                assert!(r.iterations <= cap);
-                assert!(r.trace.windows(2).all(|w| w[1] <= w[0]), "{:?}", r.trace);
-                assert!(r.loss <= f(&x0));
-                let err = r.x.iter().zip(&optimum).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-                assert!(err < tol, "{differences:?} {:?} from {x0:?}: {:?} (loss {})", optimum, r.x, r.loss);
-            }
-        }
-    }
-
-    #[test]
-    fn a_gradient_costs_2n_renders_central_and_n_forward() {
-        // F26: beside the loss at the point, which the caller already has.
-        let x = vec![0.4, 0.5, 0.6];
-        for (differences, expected) in [(Differences::Central, 6), (Differences::Forward, 3)] {
-            let cfg = GradientConfig { differences, ..GradientConfig::default() };
-            let mut calls = 0;
-            let mut eval = |p: &mut Vec<f64>| {
-                calls += 1;
-                sphere(p)
-            };
-            let (g, renders) = gradient(&mut eval, &x, sphere(&x), &cfg);
-            assert_eq!((renders, calls), (expected, expected));
-            for (i, v) in g.iter().enumerate() {
-                let exact = 2.0 * (x[i] - 0.3);
-                assert!((v - exact).abs() < 2e-3, "{differences:?} {i}: {v} vs {exact}");
-            }
-        }
-        // A whole-number axis whose small step snaps back has no derivative.
-        let mut eval = |p: &mut Vec<f64>| {
-            p[0] = (p[0] * 4.0).round() / 4.0;
-            sphere(p)
-        };
-        let (g, _) = gradient(&mut eval, &[0.5, 0.5], 0.08, &GradientConfig::default());
-        assert_eq!(g[0], 0.0);
-        assert!(g[1] > 0.0);
-    }
 }

@@ -47,6 +47,15 @@ pub struct LocalResult {
     pub converged: bool,
 }
 
+/// Moves a point a local search wants to evaluate onto one it may: inside the unit cube (NaN
+/// to 0), then `snap`ped (whole numbers whole).
+pub(super) fn into_box(x: &mut [f64], snap: &impl Fn(&mut [f64])) {
+    for c in x.iter_mut() {
+        *c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
+    }
+    snap(x);
+}
+
 /// Minimises `loss` over `[0, 1]^n` from `x0`. `snap` moves a point onto one that may be
 /// evaluated (inside the box, whole numbers whole); `stop` ends the search early when it
 /// returns true for the best loss so far.
@@ -60,10 +69,7 @@ pub fn minimise(
     let n = x0.len();
     let mut evaluations = 0;
     let mut eval = |x: &mut Vec<f64>| {
-        for c in x.iter_mut() {
-            *c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
-        }
-        snap(x);
+        into_box(x, &snap);
         evaluations += 1;
         loss(x)
     };

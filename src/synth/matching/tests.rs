@@ -1,5 +1,6 @@
-//! Checks of matching: catalogue steps on synthetic shaders with known behaviour, the simplex on
-//! functions with known optima, and the library search on renders of the library itself.
+//! Checks of matching: catalogue steps on synthetic shaders with known behaviour, the simplex
+//! and the conjugate gradients on functions with known optima, and the library search on
+//! renders of the library itself.
 
 use std::sync::OnceLock;
 
@@ -267,6 +268,70 @@ fn the_simplex_reaches_known_optima_inside_the_box() {
     // The cap holds.
     let cfg = SimplexConfig { max_iterations: 7, ftol: 0.0, ..SimplexConfig::default() };
     assert!(minimise(rosenbrock, |_| {}, &[0.2, 0.9], &cfg, |_| false).iterations <= 7);
+}
+
+#[test]
+fn conjugate_gradients_reach_known_optima_inside_the_box() {
+    // F26: the same analytic functions as the simplex's F25.
+    for (f, x0, optimum, tol, cap) in [
+        (sphere as fn(&[f64]) -> f64, vec![0.9, 0.1, 0.6], vec![0.3, 0.3, 0.3], 1e-3, 30),
+        (rosenbrock, vec![0.2, 0.9], vec![0.75, 0.75], 2e-2, 200),
+        // The optimum outside the box: the search stops on the wall.
+        (|x: &[f64]| (x[0] - 1.4).powi(2) + (x[1] - 0.5).powi(2), vec![0.2, 0.2], vec![1.0, 0.5], 1e-3, 30),
+    ] {
+        // Forward differences' O(h) error stalls them in Rosenbrock's curved valley (at
+        // h = 1e-3 they stop near (0.67, 0.62)); they are tested on the other two.
+        let modes: &[Differences] =
+            if cap == 200 { &[Differences::Central] } else { &[Differences::Central, Differences::Forward] };
+        for &differences in modes {
+            let mut outside = 0;
+            let cfg = GradientConfig { max_iterations: cap, differences, ..GradientConfig::default() };
+            let r = descend(
+                |x| {
+                    outside += x.iter().any(|c| !(0.0..=1.0).contains(c)) as usize;
+                    f(x)
+                },
+                |_| {},
+                &x0,
+                &cfg,
+                |_| false,
+            );
+            assert_eq!(outside, 0);
+            assert!(r.iterations <= cap);
+            assert!(r.trace.windows(2).all(|w| w[1] <= w[0]), "{:?}", r.trace);
+            assert!(r.loss <= f(&x0));
+            let err = r.x.iter().zip(&optimum).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            assert!(err < tol, "{differences:?} {:?} from {x0:?}: {:?} (loss {})", optimum, r.x, r.loss);
+        }
+    }
+}
+
+#[test]
+fn a_gradient_costs_2n_renders_central_and_n_forward() {
+    // F26: beside the loss at the point, which the caller already has.
+    let x = vec![0.4, 0.5, 0.6];
+    for (differences, expected) in [(Differences::Central, 6), (Differences::Forward, 3)] {
+        let cfg = GradientConfig { differences, ..GradientConfig::default() };
+        let mut calls = 0;
+        let mut eval = |p: &mut Vec<f64>| {
+            calls += 1;
+            sphere(p)
+        };
+        let (g, renders) = gradient::gradient(&mut eval, &x, sphere(&x), &cfg);
+        assert_eq!((renders, calls), (expected, expected));
+        for (i, v) in g.iter().enumerate() {
+            let exact = 2.0 * (x[i] - 0.3);
+            assert!((v - exact).abs() < 2e-3, "{differences:?} {i}: {v} vs {exact}");
+        }
+    }
+    // A whole-number axis whose small step snaps back has no derivative.
+    let mut eval = |p: &mut Vec<f64>| {
+        p[0] = (p[0] * 4.0).round() / 4.0;
+        sphere(p)
+    };
+    let (g, _) = gradient::gradient(&mut eval, &[0.5, 0.5], 0.08, &GradientConfig::default());
+    assert_eq!(g[0], 0.0);
+    assert!(g[1] > 0.0);
 }
 
 /// The library's catalogues at the default side, each built once, when a test first needs it.
