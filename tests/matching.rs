@@ -196,6 +196,11 @@ fn check_compares_match_records_shader_exactly_and_numbers_within_the_tolerance(
     let run = p.tessera(&["check", "scene.tess"]);
     run.failed();
     assert!(run.stdout().contains("FAIL") && run.stdout().contains("m.toml"), "{}", run.stdout());
+    // The failure is also a diagnostic at the record's declaration.
+    let line = 1 + text.lines().position(|l| l == "output \"m.toml\" {").unwrap();
+    let err = run.stderr();
+    assert!(err.contains("tessera::check::differs") && err.contains(&format!("[scene.tess:{line}:8]")), "{err}");
+    assert!(err.contains("output `m.toml` differs from its golden") && err.contains("1 of "), "{err}");
     p.write("scene.tess", &lenient);
     p.tessera(&["check", "scene.tess"]).ok();
     // 1e-3 off fails even then, and so does another shader.

@@ -111,6 +111,18 @@ fn a_failing_check_reports_each_output() {
     assert!(mask["failing_pixels"].as_u64().expect("failing_pixels") > 0);
     assert!(mask["diff"].is_string(), "{mask}");
     assert_eq!(by("soft.png")["status"], "missing");
+    // Each failure is also a diagnostic at its output's name, for editors.
+    let diagnostics = of_type(&all, "diagnostic");
+    let at =
+        |code: &str| *diagnostics.iter().find(|d| d["code"] == code).unwrap_or_else(|| panic!("no {code}: {all:#?}"));
+    let differs = at("tessera::check::differs");
+    assert_eq!(
+        (differs["file"].as_str(), differs["line"].as_u64(), differs["column"].as_u64()),
+        (Some("scene.tess"), Some(10), Some(8))
+    );
+    assert!(differs["help"].as_str().is_some_and(|h| h.contains("diff image")), "{differs}");
+    let missing = at("tessera::check::missing");
+    assert_eq!((missing["line"].as_u64(), missing["column"].as_u64()), (Some(11), Some(8)), "{missing}");
     let summary = of_type(&all, "summary");
     assert_eq!(summary[0]["checks"], serde_json::json!({ "pass": 0, "fail": 1, "missing": 1 }));
     assert_eq!(summary[0]["success"], false);

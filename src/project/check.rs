@@ -8,6 +8,7 @@ use super::{Built, Failed, Project};
 use crate::golden::{self, Tolerance};
 use crate::graph;
 use crate::kinds::OutputFormat;
+use crate::lang::diag::{Diagnostic, Diagnostics};
 use crate::raster;
 
 /// Default tolerance on numbers in text outputs (JSON, SVG), which are written rounded to 1e-6.
@@ -158,6 +159,57 @@ impl Project {
             rows.push(row);
         }
         Ok(rows)
+    }
+}
+
+/// The rows of `built` that did not pass, as diagnostics at the names of the outputs they
+/// check, so an editor (or a reader of the log) lands on the declaration that changed; `None`
+/// when every output passed.
+pub fn check_diagnostics(built: &Built, rows: &[CheckRow]) -> Option<Diagnostics> {
+    let items: Vec<Diagnostic> = rows
+        .iter()
+        .filter(|r| r.scene == built.name && r.status != CheckStatus::Pass)
+        .filter_map(|r| {
+            let (o, _) = built.outputs.iter().find(|(o, _)| o.name == r.output)?;
+            let d = match r.status {
+                CheckStatus::Missing => Diagnostic::error(format!("output `{}` has no golden", r.output))
+                    .with_code("tessera::check::missing")
+                    .with_label(o.span, "this output")
+                    .with_help(format!("`tessera bless {}` makes its output the golden", built.scene_path.display())),
+                _ => {
+                    let mut help = Vec::new();
+                    help.extend(r.note.clone());
+                    help.extend(r.diff.as_ref().map(|d| format!("diff image: {}", d.display())));
+                    let d = Diagnostic::error(format!("output `{}` differs from its golden", r.output))
+                        .with_code("tessera::check::differs")
+                        .with_label(o.span, differs_by(r));
+                    if help.is_empty() {
+                        d
+                    } else {
+                        d.with_help(help.join("\n"))
+                    }
+                }
+            };
+            Some(d)
+        })
+        .collect();
+    (!items.is_empty()).then(|| Diagnostics::new(items, built.scene.sources.clone()))
+}
+
+/// How far a failing output is off, in the terms of its comparison.
+fn differs_by(r: &CheckRow) -> String {
+    if r.total_pixels == 0 {
+        return "does not compare with its golden".into();
+    }
+    let beyond = format!("{} of {} beyond the tolerance", r.failing_pixels, r.total_pixels);
+    if r.exact {
+        return format!("{} of {} differ; compared exactly", r.failing_pixels, r.total_pixels);
+    }
+    match (r.bits, r.max_steps, r.tolerance_steps) {
+        (Some(bits), Some(steps), Some(tol)) => {
+            format!("off by up to {steps} {bits}-bit steps, tolerance {tol}; {beyond}")
+        }
+        _ => format!("off by up to {:.3e}, tolerance {:.3e}; {beyond}", r.max_abs, r.tolerance),
     }
 }
 

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-pub use check::{CheckRow, CheckStatus};
+pub use check::{check_diagnostics, CheckRow, CheckStatus};
 pub use manifest::Manifest;
 pub use show::{graph_dot, graph_text, timings_table};
 pub use watch::{watch, WatchEvent};

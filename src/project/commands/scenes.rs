@@ -151,7 +151,7 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
         let done = bar.suspend(|| match mode {
             Mode::Build => Ok(()),
             Mode::Bless { prune } => bless_scene(g, p, &built, selection.of(&built.name), prune, &names),
-            Mode::Check | Mode::Review => check_scene(p, &built, &names, &mut rows),
+            Mode::Check | Mode::Review => check_scene(p, &built, &names, mode == Mode::Check, &mut rows),
         });
         failed |= done.is_err();
         if mode == Mode::Review {
@@ -275,10 +275,16 @@ fn build_and_emit(
     })
 }
 
-/// Compares a scene's outputs with its goldens (rows added to `rows`) and warns about
-/// goldens of outputs it no longer declares.
-fn check_scene(p: &Project, built: &Built, names: &[String], rows: &mut Vec<CheckRow>) -> Outcome {
+/// Compares a scene's outputs with its goldens (rows added to `rows`; with `speak`, each
+/// failure also a diagnostic at its output's declaration) and warns about goldens of outputs
+/// it no longer declares.
+fn check_scene(p: &Project, built: &Built, names: &[String], speak: bool, rows: &mut Vec<CheckRow>) -> Outcome {
     let r = p.check(built).map_err(|f| print_failed(&f))?;
+    if speak {
+        if let Some(d) = project::check_diagnostics(built, &r) {
+            print::diagnostics(&d);
+        }
+    }
     rows.extend(r);
     for stale in p.stale_goldens(built, names) {
         eprintln!(
