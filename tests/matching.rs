@@ -58,6 +58,20 @@ fn bad_match_input_is_a_diagnostic_at_its_span() {
         (BAR, "  residual = -1\n", "-1", "-1"),
         (BAR, "  side = 1000000\n", "1000000", "1000000"),
         (BAR, "  catalogue = 99999999999\n", "99999999999", "99999999999"),
+        // Search ranges: outside the parameter's range, empty, not a pair, no whole number, a
+        // shader that is not a candidate or named twice, a parameter it does not have.
+        (BAR, "  candidates = \"bar\"\n  search = [bar(width = [0.2, 1.5])]\n", "1.5", "1.5"),
+        (BAR, "  candidates = \"bar\"\n  search = [bar(width = [-0.1, 0.5])]\n", "-0.1", "-0.1"),
+        (BAR, "  candidates = \"bar\"\n  search = [bar(width = [0.6, 0.2])]\n", "is empty", "[0.6, 0.2]"),
+        (BAR, "  candidates = \"bar\"\n  search = [bar(width = [0.2])]\n", "two numbers", "[0.2]"),
+        (BAR, "  candidates = \"bar\"\n  search = [bar(width = [0.1, 0.2, 0.3])]\n", "not 3", "[0.1, 0.2, 0.3]"),
+        (BAR, "  candidates = \"bar\"\n  search = [bar(width = [])]\n", "not 0", "[]"),
+        (BAR, "  candidates = \"star\"\n  search = [star(points = [4.2, 4.8])]\n", "no whole number", "[4.2, 4.8]"),
+        (BAR, "  candidates = \"bar\"\n  search = [circle(radius = [0.1, 0.2])]\n", "not a candidate", "circle(radius"),
+        (BAR, "  candidates = \"bar\"\n  search = [bar(), bar(width = [0.1, 0.2])]\n", "narrowed twice", "bar(width"),
+        (BAR, "  candidates = \"bar\"\n  search = [bar(radius = [0.1, 0.2])]\n", "radius", "radius"),
+        (BAR, "  candidates = \"bar\"\n  search = [bar(width = [0.1, 1e300])]\n", "1e300", "1e300"),
+        (BAR, "  candidates = \"bar\"\n  search = bar(width = 0.3)\n", "0.3", "0.3"),
         ("shader t {\n  pattern = bar()\n  size = 12 x 40\n}", "  candidates = \"bar\"\n", "16 x 16", "t"),
     ];
     for (target, props, message, label) in cases {
@@ -92,6 +106,51 @@ fn matches_share_catalogues_and_an_edited_target_reruns_only_its_match() {
     let (run, second) = p.build_report(&["scene.tess"]);
     run.ok();
     assert_eq!(ran(&second), vec!["match mb", "match mb target", "output mb.toml", "shader b"]);
+}
+
+#[test]
+fn narrowing_one_shaders_search_rebuilds_only_its_catalogue_and_what_follows() {
+    // F46 (the range half): a shader's search ranges key its catalogue; the other candidate's
+    // catalogue and the target's feature stay cached.
+    let text = |range: &str| {
+        scene(BAR, &format!("  candidates = \"bar, circle\"\n  side = 32\n  search = [bar(width = {range})]\n"))
+    };
+    let p = Project::new(&[("scene.tess", &text("[0.2, 0.6]"))]);
+    let (run, first) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(first.iter().filter(|s| s.kind == "match.catalogue").count(), 2, "{first:?}");
+    p.write("scene.tess", &text("[0.3, 0.45]"));
+    let (run, second) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(ran(&second), vec!["catalogue bar", "match m", "output m.png", "output m.tess", "output m.toml"]);
+    let record = p.read_text("out/scene/m.toml");
+    let width: f64 = record.lines().find_map(|l| l.strip_prefix("width = ")).unwrap().parse().unwrap();
+    assert!((width - 0.37).abs() <= 1.0 / 256.0 && (0.3..=0.45).contains(&width), "{record}");
+    // Leaving the search out builds the bar's default catalogue (this project never needed it)
+    // and nothing of the circle's.
+    p.write("scene.tess", &text("[0.3, 0.45]").replace("  search = [bar(width = [0.3, 0.45])]\n", ""));
+    let (run, third) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert_eq!(ran(&third), vec!["catalogue bar", "match m", "output m.png", "output m.tess", "output m.toml"]);
+}
+
+#[test]
+fn a_search_range_fixes_a_parameter_or_searches_one_the_shader_leaves_fixed() {
+    // `[v, v]` fixes the width at v; a range on the bar's colour (fixed by default) searches
+    // it, each channel within the range.
+    let text =
+        scene(BAR, "  candidates = \"bar\"\n  side = 32\n  search = [bar(width = [0.5, 0.5], colour = [0.5, 1])]\n");
+    let p = Project::new(&[("scene.tess", &text)]);
+    p.tessera(&["build", "scene.tess"]).ok();
+    let record = p.read_text("out/scene/m.toml");
+    assert!(record.contains("\nwidth = 0.5\n"), "{record}");
+    let colour = record.lines().find_map(|l| l.strip_prefix("colour = [")).unwrap().trim_end_matches(']').to_string();
+    let channels: Vec<f64> = colour.split(", ").map(|c| c.parse().unwrap()).collect();
+    assert!(channels.iter().all(|c| (0.5..=1.0).contains(c)), "{record}");
+    // The default colour (pure red) lies outside the range, so the colour was searched: the
+    // target's red bar is darker than the white around it, and the search goes to the
+    // darkest colours the range allows.
+    assert!(channels.iter().all(|&c| c <= 0.55), "{record}");
 }
 
 #[test]

@@ -17,13 +17,16 @@ use serde::{Deserialize, Serialize};
 
 use super::artifact::{pack, unpack};
 use super::{Bytes, Encoded, FnStage, OutputFormat, Planner};
+use std::sync::LazyLock;
+
+use super::shader::SEARCH_CALLS;
 use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
 use crate::lang::schema::{Default, Extent, KindSpec, Naming, PropSpec, Range, Ty, Unit, Value};
 use crate::lang::{Decl, Diagnostic};
 use crate::raster::Image;
 use crate::synth::matching::{
-    build_catalogue, feature, match_target, Candidate, Catalogue, CatalogueConfig, Feature, MatchConfig, MatchRecord,
-    Metric, Optimiser, Probe, Space,
+    build_catalogue, feature, match_target, AxisOverride, Candidate, Catalogue, CatalogueConfig, Feature, MatchConfig,
+    MatchRecord, Metric, Optimiser, Probe, Space,
 };
 use crate::synth::metrics::{PowerFeature, PowerParams, PyramidParams};
 use crate::synth::shader::{self as lib, ParamKind, ShaderDef};
@@ -55,14 +58,15 @@ const fn prop(name: &'static str, ty: Ty, default: Default, doc: &'static str) -
     PropSpec { name, ty, default, doc }
 }
 
-pub static SPEC: KindSpec = KindSpec {
+pub static SPEC: LazyLock<KindSpec> = LazyLock::new(|| {
+    KindSpec {
     name: "match",
     doc: "The built-in shader and parameters that best reproduce a target image (Bourque 2005): every candidate shader's catalogue (renders spread over its parameter space by adaptive random sampling, cached apart from any target) is scanned for the renders nearest the target, a bounded downhill simplex refines the best of each shader and the best others, and whole-number parameters are swept. The result is `matched` when its calibrated similarity reaches `residual`, else `no good match`. Written as a record (`.toml`), a `shader` declaration reproducing it (`.tess`) or the target beside the match (`.png`).",
     naming: Naming::Ident,
     produces: &[Value::Match],
     settings: &[],
     extent: Extent::None,
-    props: &[
+    props: Box::leak(Box::new([
         prop("target", Ty::Ref(&[Value::Image]), Default::Required, "The image to reproduce; its centred square is compared, resampled to `side`."),
         prop("candidates", Ty::Str, Default::Absent, "The shaders to try, by name, separated by commas or spaces (`\"brick, weave\"`); every library shader when absent."),
         prop("metric", Ty::Enum(METRICS.names), Default::Text("power"), "How renders are compared: `power` (the 2-D power spectrum S_F, sensitive to orientation, blind to position), `log_power` (its log-power variant, each spectrum scaled to unit length) or `pyramid` (Laplacian-pyramid histograms S_L)."),
@@ -72,8 +76,10 @@ pub static SPEC: KindSpec = KindSpec {
         prop("residual", Ty::Number(Unit::Plain, Range { min: 0.0, max: 1.0 }), Default::Text("0.8"), "Calibrated similarity below which the result is `no good match` (1: identical; 1/e: as alike as two unrelated renders of the library)."),
         prop("accept", Ty::Number(Unit::Plain, Range { min: 0.0, max: 1.0 }), Default::Absent, "Stop searching as soon as a result reaches this calibrated similarity (fewer renders, maybe not the best match)."),
         prop("catalogue", Ty::Int(8, 2000), Default::Text("160"), "Renders kept in each shader's catalogue after pruning."),
-    ],
-};
+        prop("search", Ty::Calls(*SEARCH_CALLS), Default::Text("[]"), "Narrower search ranges for candidate shaders, one call per shader: `search = [brick(width = [0.1, 0.4], mortar = [0.01, 0.01])]` searches the brick's width over [0.1, 0.4] and fixes its mortar at 0.01; a parameter the shader does not search by default is searched when given a range. A shader's catalogue is built over its ranges, so editing one shader's ranges rebuilds only its catalogue and the search."),
+    ])),
+}
+});
 
 /// One shader's catalogue as a cached artifact.
 pub struct ShaderCatalogue(pub Catalogue<Feature>);
@@ -186,6 +192,23 @@ impl Encoded for Matched {
     }
 }
 
+/// A shader's search narrowed by a match's `search`: its fixed values and changed axes.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub(super) struct Narrowed {
+    base: Vec<f64>,
+    overrides: Vec<AxisOverride>,
+}
+
+/// The search space of `def`: its default one, or as narrowed.
+fn space_of(def: &'static ShaderDef, narrowed: Option<&Narrowed>) -> Result<Space, StageError> {
+    match narrowed {
+        None => Ok(Space::new(def)),
+        Some(n) => {
+            Space::with(def, n.base.clone(), &n.overrides).map_err(|e| StageError::new(e.to_string()).at_prop("search"))
+        }
+    }
+}
+
 #[derive(Serialize)]
 struct CatalogueKey {
     shader: &'static str,
@@ -194,11 +217,14 @@ struct CatalogueKey {
     metric: Metric,
     config: CatalogueConfig,
     seed: u64,
+    /// Absent for the default search, so those catalogues keep their keys.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    narrowed: Option<Narrowed>,
 }
 
 fn run_catalogue(_: &RunCx, k: &CatalogueKey) -> Result<ShaderCatalogue, StageError> {
     let def = lib::shader(k.shader).expect("planned from the library");
-    let space = Space::new(def);
+    let space = space_of(def, k.narrowed.as_ref())?;
     let probe = Probe { space: &space, seed: k.seed, side: k.side, metric: k.metric };
     Ok(ShaderCatalogue(build_catalogue(&probe, &k.config, k.seed)))
 }
@@ -228,11 +254,21 @@ struct SearchKey {
     metric: Metric,
     seed: u64,
     config: MatchConfig,
+    /// The candidates whose search `search` narrowed.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    narrowed: Vec<(&'static str, Narrowed)>,
 }
 
 fn run_search(cx: &RunCx, k: &SearchKey) -> Result<Matched, StageError> {
     let target = cx.get(k.target);
-    let spaces: Vec<Space> = k.catalogues.iter().map(|(s, _)| Space::new(lib::shader(s).expect("library"))).collect();
+    let spaces = k
+        .catalogues
+        .iter()
+        .map(|(s, _)| {
+            let narrowed = k.narrowed.iter().find(|(n, _)| n == s).map(|(_, n)| n);
+            space_of(lib::shader(s).expect("library"), narrowed)
+        })
+        .collect::<Result<Vec<Space>, _>>()?;
     let catalogues: Vec<_> = k.catalogues.iter().map(|(_, h)| cx.get(*h)).collect();
     let cands: Vec<Candidate> = spaces
         .iter()
@@ -250,6 +286,64 @@ fn run_search(cx: &RunCx, k: &SearchKey) -> Result<Matched, StageError> {
 /// The shaders a match may find: its candidates.
 pub(super) fn candidate_shaders(d: &Decl) -> Result<Vec<&'static ShaderDef>, Diagnostic> {
     candidates(d)
+}
+
+/// The candidates' searches as `search` narrows them, each checked: a candidate's shader at
+/// most once, each range a `[lo, hi]` with lo ≤ hi holding a whole number for integer
+/// parameters; `[v, v]` fixes the parameter at v.
+fn narrowed_searches(d: &Decl, defs: &[&'static ShaderDef]) -> Result<Vec<(&'static str, Narrowed)>, Diagnostic> {
+    let mut out: Vec<(&'static str, Narrowed)> = Vec::new();
+    for call in d.props.calls("search") {
+        let at = call.span.or(d.props.span("search")).unwrap_or(d.name_span);
+        let refuse = |message: String, span: crate::lang::source::Span, label: &str| {
+            Diagnostic::error(message).with_code("tessera::match").with_label(span, label.to_string())
+        };
+        let Some(def) = defs.iter().copied().find(|def| def.name == call.name) else {
+            let names: Vec<&str> = defs.iter().map(|d| d.name).collect();
+            return Err(refuse(format!("`{}` is not a candidate of this match", call.name), at, "not a candidate")
+                .with_help(format!("the candidates: {}", names.join(", "))));
+        };
+        if out.iter().any(|(n, _)| *n == def.name) {
+            return Err(refuse(format!("the search of `{}` is narrowed twice", def.name), at, "again here"));
+        }
+        let mut base = def.defaults();
+        let mut overrides = Vec::new();
+        for (p, offset) in def.params.iter().zip(lib::params::offsets(def.params)) {
+            let Some(range) = call.args.opt_numbers(p.name) else { continue };
+            let span = call.args.span(p.name).unwrap_or(at);
+            let &[lo, hi] = range else {
+                return Err(refuse(
+                    format!("a search range is two numbers `[lo, hi]`, not {}", range.len()),
+                    span,
+                    "here",
+                )
+                .with_help("`[v, v]` fixes the parameter at v"));
+            };
+            if lo > hi {
+                return Err(refuse(format!("the search range [{lo}, {hi}] of `{}` is empty", p.name), span, "lo > hi")
+                    .with_help(format!("write `[{hi}, {lo}]`")));
+            }
+            let int = matches!(p.kind, ParamKind::Int { .. });
+            if int && lo.ceil() > hi.floor() {
+                return Err(refuse(
+                    format!("the search range [{lo}, {hi}] of `{}` holds no whole number", p.name),
+                    span,
+                    "a whole-number parameter",
+                ));
+            }
+            if lo == hi {
+                base[offset..offset + p.kind.width()].fill(lo);
+                overrides.push(AxisOverride { name: p.name.to_string(), search: Some(false), range: None });
+            } else {
+                overrides.push(AxisOverride { name: p.name.to_string(), search: Some(true), range: Some((lo, hi)) });
+            }
+        }
+        let narrowed = Narrowed { base, overrides };
+        Space::with(def, narrowed.base.clone(), &narrowed.overrides)
+            .map_err(|e| refuse(e.to_string(), at, "this search"))?;
+        out.push((def.name, narrowed));
+    }
+    Ok(out)
 }
 
 /// The shaders `candidates` names, or the whole library.
@@ -292,12 +386,21 @@ pub(super) fn plan_catalogue(
     side: usize,
     metric: Metric,
     config: &CatalogueConfig,
+    narrowed: Option<&Narrowed>,
 ) -> Handle<ShaderCatalogue> {
     // One seed for every catalogue and render, from the scene's seed but not the match's
     // name: every match of a scene shares the catalogues, and a stochastic shader's renders
     // agree between the catalogue and the search.
     let seed = catalogue_seed(p);
-    let key = CatalogueKey { shader: def.name, version: def.version, side, metric, config: config.clone(), seed };
+    let key = CatalogueKey {
+        shader: def.name,
+        version: def.version,
+        side,
+        metric,
+        config: config.clone(),
+        seed,
+        narrowed: narrowed.cloned(),
+    };
     let id = serde_json::to_string(&key).expect("a catalogue key serialises");
     p.shared(id, |p| {
         let stage = FnStage::keyed("match.catalogue", 1, key, run_catalogue);
@@ -325,10 +428,12 @@ impl super::Kind for MatchKind {
         let metric = metric(METRICS.get(props.enumeration("metric")));
         let config = CatalogueConfig { cap: props.int("catalogue") as usize, ..CatalogueConfig::default() };
         let seed = catalogue_seed(p);
+        let narrowed = narrowed_searches(d, &defs)?;
         let mut inputs = Inputs::new();
         let mut catalogues = Vec::new();
         for def in defs {
-            let h = plan_catalogue(p, def, side, metric, &config);
+            let n = narrowed.iter().find(|(s, _)| *s == def.name).map(|(_, n)| n);
+            let h = plan_catalogue(p, def, side, metric, &config, n);
             catalogues.push((def.name, inputs.add(h)));
         }
         let at = props.span("target").unwrap_or(d.name_span);
@@ -348,7 +453,8 @@ impl super::Kind for MatchKind {
             optimiser: OPTIMISERS.get(props.enumeration("optimiser")),
             ..MatchConfig::default()
         };
-        let key = SearchKey { target: inputs.add(target), catalogues, side, metric, seed, config: match_config };
+        let key =
+            SearchKey { target: inputs.add(target), catalogues, side, metric, seed, config: match_config, narrowed };
         let node: Handle<Matched> =
             p.add(format!("match {}", d.name), FnStage::keyed("match.search", 1, key, run_search), inputs, vec![]);
         Ok(Some(node.erase()))

@@ -60,6 +60,36 @@ fn call_spec(def: &'static ShaderDef) -> CallSpec {
     CallSpec { name: def.name, doc: def.doc, args: Box::leak(args.into_boxed_slice()) }
 }
 
+/// The schema of one library shader's search ranges in a `match`: one optional `[lo, hi]`
+/// per parameter, inside the parameter's own range.
+fn search_spec(def: &'static ShaderDef) -> CallSpec {
+    let args = def
+        .params
+        .iter()
+        .map(|p| {
+            let (min, max) = p.kind.bounds();
+            let unit = if matches!(p.kind, ParamKind::Angle { .. }) { Unit::Angle } else { Unit::Plain };
+            let (range, each) = match p.kind {
+                ParamKind::Angle { .. } => (format!("[{}, {}] deg", min.to_degrees(), max.to_degrees()), ""),
+                ParamKind::Int { .. } => (format!("[{min}, {max}]"), ", whole numbers"),
+                ParamKind::Colour => ("[0, 1]".into(), ", for each channel"),
+                ParamKind::Float { .. } => (format!("[{min}, {max}]"), ""),
+            };
+            let searched = if p.search { "searched over its whole range" } else { "fixed at its default" };
+            let doc = leak(format!(
+                "{}: `[lo, hi]` inside {range}{each} (`[v, v]` fixes it at v). Left out: {searched}.",
+                p.doc.trim_end_matches('.')
+            ));
+            PropSpec { name: p.name, ty: Ty::Numbers(unit, Range { min, max }), default: Default::Absent, doc }
+        })
+        .collect::<Vec<_>>();
+    CallSpec { name: def.name, doc: def.doc, args: Box::leak(args.into_boxed_slice()) }
+}
+
+/// Every library shader's search-range call, for `match`'s `search`.
+pub(super) static SEARCH_CALLS: LazyLock<&'static [CallSpec]> =
+    LazyLock::new(|| Box::leak(lib::LIBRARY.iter().map(|d| search_spec(d)).collect::<Vec<_>>().into_boxed_slice()));
+
 static CALLS: LazyLock<&'static [CallSpec]> =
     LazyLock::new(|| Box::leak(lib::LIBRARY.iter().map(|d| call_spec(d)).collect::<Vec<_>>().into_boxed_slice()));
 

@@ -227,7 +227,7 @@ impl super::Kind for TransformKind {
             }
             // A match's catalogues are planned under its own side, metric and size: the keys'
             // values are what is read from it, so the transformation's own settings decide.
-            let h = plan_catalogue(p, def, side, metric, &catalogue);
+            let h = plan_catalogue(p, def, side, metric, &catalogue, None);
             catalogues.push((def.name, inputs.add(h)));
         }
         let config = TransformConfig {
