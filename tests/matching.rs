@@ -54,6 +54,7 @@ fn bad_match_input_is_a_diagnostic_at_its_span() {
         (BAR, "  catalogue = 0\n", "catalogue", "0"),
         (BAR, "  metric = \"fourier\"\n", "fourier", "\"fourier\""),
         (BAR, "  optimiser = newton\n", "`newton` is not one of `simplex`, `gradient`", "newton"),
+        (BAR, "  pruning = lambda\n", "`lambda` is not one of `redundancy`, `coverage`", "lambda"),
         (BAR, "  accept = -0.5\n", "-0.5", "-0.5"),
         (BAR, "  residual = -1\n", "-1", "-1"),
         (BAR, "  side = 1000000\n", "1000000", "1000000"),
@@ -227,9 +228,16 @@ fn hostile_targets_are_matched_or_refused_never_scored_as_perfect() {
 #[test]
 fn a_match_does_not_depend_on_the_thread_count() {
     let text = scene(BAR, "  candidates = \"bar, circle\"\n  side = 32\n  catalogue = 40\n");
-    let one = Project::new(&[("scene.tess", &text)]);
+    let coverage = text.replace("  catalogue = 40\n", "  catalogue = 40\n  pruning = coverage\n");
+    for text in [text, coverage] {
+        same_match_on_one_and_two_threads(&text);
+    }
+}
+
+fn same_match_on_one_and_two_threads(text: &str) {
+    let one = Project::new(&[("scene.tess", text)]);
     one.tessera(&["build", "-j", "1", "scene.tess"]).ok();
-    let two = Project::new(&[("scene.tess", &text)]);
+    let two = Project::new(&[("scene.tess", text)]);
     two.tessera(&["build", "-j", "2", "scene.tess"]).ok();
     for f in ["m.toml", "m.tess", "m.png"] {
         assert!(one.read(&format!("out/scene/{f}")) == two.read(&format!("out/scene/{f}")), "{f} differs");

@@ -26,7 +26,7 @@ use crate::lang::{Decl, Diagnostic};
 use crate::raster::Image;
 use crate::synth::matching::{
     build_catalogue, feature, match_target, AxisOverride, Candidate, Catalogue, CatalogueConfig, Feature, MatchConfig,
-    MatchRecord, Metric, Optimiser, Probe, Space,
+    MatchRecord, Metric, Optimiser, Probe, Pruning, Space,
 };
 use crate::synth::metrics::{PowerFeature, PowerParams, PyramidParams};
 use crate::synth::shader::{self as lib, ParamKind, ShaderDef};
@@ -40,6 +40,10 @@ pub(super) enum MetricChoice {
 
 crate::choices!(pub(super) METRICS: MetricChoice {
     "power" => MetricChoice::Power, "log_power" => MetricChoice::LogPower, "pyramid" => MetricChoice::Pyramid
+});
+
+crate::choices!(PRUNINGS: Pruning {
+    "redundancy" => Pruning::Redundancy, "coverage" => Pruning::Coverage
 });
 
 crate::choices!(OPTIMISERS: Optimiser {
@@ -76,6 +80,7 @@ pub static SPEC: LazyLock<KindSpec> = LazyLock::new(|| {
         prop("residual", Ty::Number(Unit::Plain, Range { min: 0.0, max: 1.0 }), Default::Text("0.8"), "Calibrated similarity below which the result is `no good match` (1: identical; 1/e: as alike as two unrelated renders of the library)."),
         prop("accept", Ty::Number(Unit::Plain, Range { min: 0.0, max: 1.0 }), Default::Absent, "Stop searching as soon as a result reaches this calibrated similarity (fewer renders, maybe not the best match)."),
         prop("catalogue", Ty::Int(8, 2000), Default::Text("160"), "Renders kept in each shader's catalogue after pruning."),
+        prop("pruning", Ty::Enum(PRUNINGS.names), Default::Text("redundancy"), "Which renders a catalogue over its size drops: `redundancy` (the thesis's Eq. 4.5: the renders most similar to all others, all at once; it keeps a shader's unusual looks, which photographs often need) or `coverage` (one at a time, the one whose loss costs the catalogue's coverage of the renders it has seen least: it covers random renders of the shader better than as many random renders do, and keeps fewer unusual looks)."),
         prop("search", Ty::Calls(*SEARCH_CALLS), Default::Text("[]"), "Narrower search ranges for candidate shaders, one call per shader: `search = [brick(width = [0.1, 0.4], mortar = [0.01, 0.01])]` searches the brick's width over [0.1, 0.4] and fixes its mortar at 0.01; a parameter the shader does not search by default is searched when given a range. A shader's catalogue is built over its ranges, so editing one shader's ranges rebuilds only its catalogue and the search."),
     ])),
 }
@@ -403,7 +408,7 @@ pub(super) fn plan_catalogue(
     };
     let id = serde_json::to_string(&key).expect("a catalogue key serialises");
     p.shared(id, |p| {
-        let stage = FnStage::keyed("match.catalogue", 1, key, run_catalogue);
+        let stage = FnStage::keyed("match.catalogue", 2, key, run_catalogue);
         p.add(format!("catalogue {}", def.name), stage, Inputs::new(), vec![])
     })
 }
@@ -426,7 +431,11 @@ impl super::Kind for MatchKind {
         let defs = candidates(d)?;
         let side = props.int("side") as usize;
         let metric = metric(METRICS.get(props.enumeration("metric")));
-        let config = CatalogueConfig { cap: props.int("catalogue") as usize, ..CatalogueConfig::default() };
+        let config = CatalogueConfig {
+            cap: props.int("catalogue") as usize,
+            pruning: PRUNINGS.get(props.enumeration("pruning")),
+            ..CatalogueConfig::default()
+        };
         let seed = catalogue_seed(p);
         let narrowed = narrowed_searches(d, &defs)?;
         let mut inputs = Inputs::new();

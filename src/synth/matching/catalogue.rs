@@ -10,7 +10,8 @@
 //!    `γ` (Eq. 4.4: roughness and distance to the nearest vertex, as the thesis's text says;
 //!    its formula's farthest vertex is an option).
 //! 3. **Pruning** to the cap by redundancy `λ` (Eq. 4.5): the most redundant vertices go, all
-//!    at once as the thesis does.
+//!    at once as the thesis does; or ([`Pruning::Coverage`], our option) one vertex at a time,
+//!    the one whose loss costs the graph's coverage of its own vertices least.
 //!
 //! The screening subset removes one most-redundant vertex at a time (λ recomputed), down to its
 //! cap: one cut from 200 to 16 would keep only the outliers.
@@ -60,6 +61,8 @@ pub struct CatalogueConfig {
     pub h_step: f64,
     /// Vertex cap of the full graph and of the screening subset.
     pub cap: usize,
+    /// Which vertices go when the graph is over its cap.
+    pub pruning: Pruning,
     pub screen_cap: usize,
     /// Refinement stops once `κ` is at most this, or after `rounds` rounds.
     pub kappa: f64,
@@ -80,11 +83,33 @@ impl Default for CatalogueConfig {
             radius: 0.05,
             h_step: 0.02,
             cap: 160,
+            pruning: Pruning::Redundancy,
             screen_cap: 16,
             kappa: 0.004,
             rounds: 4,
         }
     }
+}
+
+/// How a graph over its cap is pruned.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Pruning {
+    /// The thesis's Eq. 4.5: the vertices with the largest redundancy λ (summed similarity to
+    /// every other vertex) go, all at once. It keeps the renders least like the rest, so the
+    /// common looks of a shader thin out: measured on the eyeball and the weave, a catalogue
+    /// pruned this way covers held-out random renders worse than as many random renders do.
+    /// It stays the default because the unusual looks it keeps are what real photographs
+    /// need: the example brick wall finds the brick through them, and a starfield without.
+    #[default]
+    Redundancy,
+    /// (Ours, not the thesis's.) The vertex whose loss costs the graph's coverage of its own vertices least
+    /// goes, one at a time: each vertex is covered by its most similar kept vertex (itself
+    /// while kept), and the cost of a removal is how much the vertices it covers lose by
+    /// falling back to their next best, weighed by how many uniform points each stands for
+    /// (local samples stand for none). One of two near-twins goes long before a unique render,
+    /// and a common look keeps as many renders as the parameter space gives it.
+    Coverage,
 }
 
 /// One refinement round, for the catalogue's manifest.
@@ -189,6 +214,11 @@ struct Builder<'a, O: Oracle> {
     features: Vec<O::Feature>,
     rows: Vec<Vec<f64>>,
     roughness: Vec<f64>,
+    /// How many uniform points each vertex stands for: 1 for its own (0 for a local sample),
+    /// plus the duplicates it turned away and the vertices pruned in its favour. Coverage
+    /// pruning weighs vertices by it, so the graph keeps covering the shader's parameter
+    /// space as a whole rather than the looks its earlier rounds kept.
+    mass: Vec<f64>,
     features_computed: usize,
     comparisons: usize,
 }
@@ -233,19 +263,32 @@ impl<O: Oracle> Builder<'_, O> {
     }
 
     /// Offers points in order; keeps those no vertex duplicates. Returns (kept, duplicates).
-    fn offer(&mut self, mut points: Vec<Vec<f64>>) -> (usize, usize) {
+    fn offer(&mut self, mut points: Vec<Vec<f64>>, mass: f64) -> (usize, usize) {
         for x in &mut points {
             self.oracle.snap(x);
         }
         // A point offered twice, or snapped onto a vertex (whole numbers, the cube's walls), is
         // a duplicate without being rendered again.
         let bits = |x: &[f64]| -> Vec<u64> { x.iter().map(|c| c.to_bits()).collect() };
-        let mut seen: std::collections::HashSet<Vec<u64>> = self.points.iter().map(|x| bits(x)).collect();
+        let mut seen: std::collections::HashMap<Vec<u64>, Option<usize>> =
+            self.points.iter().enumerate().map(|(i, x)| (bits(x), Some(i))).collect();
         let offered = points.len();
-        points.retain(|x| seen.insert(bits(x)));
+        points.retain(|x| match seen.get(&bits(x)) {
+            Some(&vertex) => {
+                // A repeat of a point offered in this call finds no vertex to credit yet.
+                if let Some(v) = vertex {
+                    self.mass[v] += mass;
+                }
+                false
+            }
+            None => {
+                seen.insert(bits(x), None);
+                true
+            }
+        });
         let repeated = offered - points.len();
         let feats = self.features(&points);
-        let (kept, duplicates) = self.offer_rendered(points, feats, None);
+        let (kept, duplicates) = self.offer_rendered(points, feats, None, mass);
         (kept, duplicates + repeated)
     }
 
@@ -257,6 +300,7 @@ impl<O: Oracle> Builder<'_, O> {
         points: Vec<Vec<f64>>,
         feats: Vec<O::Feature>,
         known: Option<&[f64]>,
+        mass: f64,
     ) -> (usize, usize) {
         let first = self.points.len();
         let n = points.len();
@@ -278,6 +322,8 @@ impl<O: Oracle> Builder<'_, O> {
             };
             if row.iter().any(|&e| e > self.cfg.omega) {
                 duplicates += 1;
+                let twin = (0..row.len()).max_by(|&a, &b| row[a].total_cmp(&row[b]).then(b.cmp(&a))).expect("a row");
+                self.mass[twin] += mass;
                 continue;
             }
             batch.push(j);
@@ -289,6 +335,7 @@ impl<O: Oracle> Builder<'_, O> {
             self.rows.push(row);
             self.points.push(x);
             self.features.push(f);
+            self.mass.push(mass);
         }
         let fresh: Vec<(f64, usize)> = (first..self.points.len())
             .into_par_iter()
@@ -309,6 +356,7 @@ impl<O: Oracle> Builder<'_, O> {
             self.points.remove(i);
             self.features.remove(i);
             self.roughness.remove(i);
+            self.mass.remove(i);
             self.rows.remove(i);
             for r in &mut self.rows {
                 r.remove(i);
@@ -375,10 +423,11 @@ pub fn build<O: Oracle>(oracle: &O, cfg: &CatalogueConfig, seed: u64) -> Catalog
         features: Vec::new(),
         rows: Vec::new(),
         roughness: Vec::new(),
+        mass: Vec::new(),
         features_computed: feats.len(),
         comparisons: raw.len(),
     };
-    b.offer_rendered(first, feats, Some(&raw));
+    b.offer_rendered(first, feats, Some(&raw), 1.0);
     let mut rounds = Vec::new();
     if dim > 0 {
         for _ in 0..cfg.rounds {
@@ -386,17 +435,31 @@ pub fn build<O: Oracle>(oracle: &O, cfg: &CatalogueConfig, seed: u64) -> Catalog
             if kappa <= cfg.kappa {
                 break;
             }
-            let (mut added, mut duplicates) = b.offer(uniform(&mut rng, dim, k));
+            let (mut added, mut duplicates) = b.offer(uniform(&mut rng, dim, k), 1.0);
             let gamma = isolation(&b.rows, &b.roughness, cfg);
             let mut local = Vec::new();
             for &v in ranked(&gamma).iter().take(cfg.q) {
                 local.extend(local_samples(&mut rng, &b.points[v], cfg.radius, cfg.local));
             }
-            let (a, d) = b.offer(local);
+            let (a, d) = b.offer(local, 0.0);
             added += a;
             duplicates += d;
             let mut pruned = 0;
-            let gone = pruned_set(&b.rows, cfg.cap.max(1));
+            let gone = match cfg.pruning {
+                Pruning::Redundancy => pruned_set(&b.rows, cfg.cap.max(1)),
+                Pruning::Coverage => coverage_pruned_set(&b.rows, &b.mass, cfg.cap.max(1)),
+            };
+            // What a pruned vertex stood for passes to the kept vertex most like it.
+            let mut kept = vec![true; b.rows.len()];
+            gone.iter().for_each(|&g| kept[g] = false);
+            for &g in &gone {
+                let row = &b.rows[g];
+                let heir =
+                    (0..row.len()).filter(|&v| kept[v]).max_by(|&x, &y| row[x].total_cmp(&row[y]).then(y.cmp(&x)));
+                if let Some(h) = heir {
+                    b.mass[h] += b.mass[g];
+                }
+            }
             if !gone.is_empty() {
                 pruned = gone.len();
                 b.remove(gone);
@@ -425,6 +488,49 @@ pub fn build<O: Oracle>(oracle: &O, cfg: &CatalogueConfig, seed: u64) -> Catalog
 pub fn pruned_set(rows: &[Vec<f64>], cap: usize) -> Vec<usize> {
     let excess = rows.len().saturating_sub(cap);
     ranked(&redundancy(rows)).into_iter().take(excess).collect()
+}
+
+/// The vertices coverage pruning removes to bring the graph down to `cap` (see
+/// [`Pruning::Coverage`]), in the order it removes them; ties go to the lowest index.
+pub fn coverage_pruned_set(rows: &[Vec<f64>], mass: &[f64], cap: usize) -> Vec<usize> {
+    let n = rows.len();
+    let mut alive = vec![true; n];
+    // Each vertex's best and second-best kept cover: (similarity, vertex).
+    let best_two = |u: usize, alive: &[bool]| -> [(f64, usize); 2] {
+        let mut top = [(f64::NEG_INFINITY, usize::MAX); 2];
+        for (v, &e) in rows[u].iter().enumerate() {
+            if !alive[v] {
+                continue;
+            }
+            if e > top[0].0 || (e == top[0].0 && v < top[0].1) {
+                top[1] = top[0];
+                top[0] = (e, v);
+            } else if e > top[1].0 || (e == top[1].0 && v < top[1].1) {
+                top[1] = (e, v);
+            }
+        }
+        top
+    };
+    let mut cover: Vec<[(f64, usize); 2]> = (0..n).map(|u| best_two(u, &alive)).collect();
+    let mut gone = Vec::with_capacity(n.saturating_sub(cap));
+    for _ in cap..n {
+        let mut cost = vec![0.0; n];
+        for (c, &m) in cover.iter().zip(mass) {
+            if c[1].1 != usize::MAX {
+                cost[c[0].1] += m * (c[0].0 - c[1].0);
+            }
+        }
+        let v =
+            (0..n).filter(|&v| alive[v]).min_by(|&a, &b| cost[a].total_cmp(&cost[b]).then(a.cmp(&b))).expect("alive");
+        alive[v] = false;
+        gone.push(v);
+        for (u, c) in cover.iter_mut().enumerate() {
+            if c[0].1 == v || c[1].1 == v {
+                *c = best_two(u, &alive);
+            }
+        }
+    }
+    gone
 }
 
 /// The screening subset: the most redundant vertex removed one at a time until `cap` remain.

@@ -27,7 +27,7 @@ pub mod simplex;
 pub mod space;
 pub mod transform;
 
-pub use catalogue::{build as build_catalogue, Catalogue, CatalogueConfig, Oracle};
+pub use catalogue::{build as build_catalogue, Catalogue, CatalogueConfig, Oracle, Pruning};
 pub use gradient::{descend, Differences, GradientConfig};
 pub use jump::{jump_points, JumpConfig, JumpPoint, JumpSet};
 pub use probe::{canonical, feature, similarity, Feature, Metric, Probe, TargetTooSmall};
