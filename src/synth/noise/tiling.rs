@@ -448,6 +448,27 @@ impl Prepared {
         self.bilinear_texels(x0, fx as f32, rows)
     }
 
+    /// [`Prepared::bilinear_at`] of `x` moved by `column` whole texels: the column is added to
+    /// the wrapped index rather than to `x`, so the three lookups of a point share one floor and
+    /// one fraction (each of them the exact fraction of `x`, where adding a large column first
+    /// would round it).
+    #[inline(always)]
+    fn bilinear_shifted(&self, x: f64, column: usize, rows: TexelRows) -> Vec4 {
+        let (x0, fx) = self.wrap(x, self.width);
+        self.bilinear_texels(self.shift(x0, column), fx as f32, rows)
+    }
+
+    /// Texel column `x0` moved by `column` (both below the width), wrapping.
+    #[inline(always)]
+    fn shift(&self, x0: usize, column: usize) -> usize {
+        let i = x0 + column;
+        if i >= self.width {
+            i - self.width
+        } else {
+            i
+        }
+    }
+
     /// The bilinear blend of texel columns `x0` and the next (weight `fx` on it) of `rows`.
     #[inline(always)]
     fn bilinear_texels(&self, x0: usize, fx: f32, rows: TexelRows) -> Vec4 {
@@ -748,6 +769,14 @@ struct Vertex {
     centre: [f64; 2],
 }
 
+impl Vertex {
+    /// The horizontal offset as a texel column (a whole number below the exemplar's width).
+    #[inline(always)]
+    fn column(&self) -> usize {
+        self.offset[0] as usize
+    }
+}
+
 /// Evaluation along one output row (fixed v). The row crosses one column of lattice cells after
 /// another; the four vertices of the current column are kept until the row leaves it. A vertex is
 /// a pure function of its lattice position, so keeping it changes no value: a point costs the same
@@ -891,7 +920,7 @@ impl<'a> Row<'a> {
             }
             let vertex = &self.quad[q];
             let sample = if self.setup.rotation == 0.0 {
-                prep.bilinear_at(u * texel - 0.5 + vertex.offset[0], self.rows[q])
+                prep.bilinear_shifted(u * texel - 0.5, vertex.column(), self.rows[q])
             } else {
                 let ([co, s], centre) = (vertex.turn, vertex.centre);
                 let d = [u - centre[0], self.v - centre[1]];
@@ -935,24 +964,25 @@ impl Row<'_> {
                 self.enter(first.bx);
             }
             let order = if first.lower { [0, 1, 2] } else { [3, 2, 1] };
-            let offset = order.map(|q| self.quad[q].offset[0]);
+            let offset = order.map(|q| self.quad[q].column());
             let rows = order.map(|q| self.rows[q]);
             for start in (x..x + len).step_by(CHUNK) {
                 let n = CHUNK.min(x + len - start);
                 for i in 0..n {
                     let t = u(start + i) * texel - 0.5;
+                    debug_assert!(t.abs() < ROUND_LIMIT);
+                    let (x0, fx) = if width.is_power_of_two() {
+                        // `floor_biased` without its range test, and `wrap`'s mask.
+                        let near = (t + ROUND) - ROUND;
+                        let base = if near > t { near - 1.0 } else { near };
+                        ((base + ROUND).to_bits() as usize & (width - 1), (t - base) as f32)
+                    } else {
+                        let (x0, fx) = wrap(t, width);
+                        (x0, fx as f32)
+                    };
                     for k in 0..3 {
-                        let y = t + offset[k];
-                        debug_assert!(y.abs() < ROUND_LIMIT);
-                        (index[k][i], fraction[k][i]) = if width.is_power_of_two() {
-                            // `floor_biased` without its range test, and `wrap`'s mask.
-                            let near = (y + ROUND) - ROUND;
-                            let base = if near > y { near - 1.0 } else { near };
-                            ((base + ROUND).to_bits() as usize & (width - 1), (y - base) as f32)
-                        } else {
-                            let (x0, fx) = wrap(y, width);
-                            (x0, fx as f32)
-                        };
+                        index[k][i] = prep.shift(x0, offset[k]);
+                        fraction[k][i] = fx;
                     }
                 }
                 for (i, (g, c)) in gauss[start..start + n].iter_mut().zip(&corners[start..start + n]).enumerate() {
