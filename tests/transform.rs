@@ -46,6 +46,25 @@ fn a_transformation_writes_its_record_strip_and_frames() {
 }
 
 #[test]
+fn a_strip_and_frame_files_of_one_sequence_render_each_frame_once() {
+    let p = Project::new(&[("scene.tess", &scene("[thin, wide]", "  frames = 5\n", OUTPUTS))]);
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    let frames: Vec<&str> = stages.iter().filter(|s| s.kind == "transform.frame").map(|s| s.label.as_str()).collect();
+    assert_eq!(frames, ["t frame 0", "t frame 1", "t frame 2", "t frame 3", "t frame 4"], "{stages:?}");
+    // Without `frames` the strip shows the whole path, whose length is known only once built:
+    // it renders its own frames, and still shows the keys at its ends.
+    let p = Project::new(&[("scene.tess", &scene("[thin, wide]", "", "output \"t.png\" {\n  from = t\n}\n"))]);
+    let (run, stages) = p.build_report(&["scene.tess"]);
+    run.ok();
+    assert!(stages.iter().all(|s| s.kind != "transform.frame"), "{stages:?}");
+    let strip = image::open(p.path("out/scene/t.png")).unwrap().to_rgb8();
+    // Whole frames of 32 pixels with gaps of 2, at least the two keys.
+    let (w, h) = strip.dimensions();
+    assert!((w + 2) % 34 == 0 && (h + 2) % 34 == 0 && w >= 2 * 34 - 2, "{w} x {h}");
+}
+
+#[test]
 fn a_match_can_be_a_key_and_an_edit_reruns_only_what_follows() {
     // F46: a match's shader is found at run time; editing one key re-runs only its path.
     let text = scene(

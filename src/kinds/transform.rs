@@ -4,15 +4,20 @@
 //! output name holding `#`s: `walk/frame_###.png`).
 //!
 //! ```text
-//! catalogues (shared with matches) ─┐
-//! matches among the keys ───────────┴─► transform.path ─► record, strip, frames
+//! catalogues (shared with matches) ─┐                  ┌─► record
+//! matches among the keys ───────────┴─► transform.path ─┼─► transform.frame × frames ─► strip, frame files
+//!                                                        └─► strip (no `frames`: the whole path)
 //! ```
+//!
+//! With `frames` set, each frame is one stage that the strip and the frame files share, so a
+//! scene writing both renders a frame once.
 //!
 //! A match's shader is known only once it has run, so the path stage reads the catalogues of
 //! every shader a key can turn out to be (a shader key's own, a match's candidates, the `via`
 //! shaders) and computes the jump points between the shaders the keys turn out to use.
 
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 use super::matching::{arguments, metric, plan_catalogue, round, shader_list, Matched, ShaderCatalogue, METRICS};
 use super::{Bytes, Encoded, FnStage, OutputFormat, Planner};
@@ -282,22 +287,41 @@ impl super::Kind for TransformKind {
                 });
                 p.add(format!("output {}", d.name), stage, inputs, vec![])
             }
-            OutputFormat::Png8 | OutputFormat::Png16 | OutputFormat::Exr if hashes == 0 => {
-                let stage = FnStage::keyed(
-                    "output.transform_strip",
-                    1,
-                    (h, frames, size, format),
-                    |cx, &(h, frames, size, format)| {
-                        let t = cx.get(h);
-                        let img = strip(&t, &chosen(&t, frames), size)?;
-                        super::output::encode_image(
-                            &super::output::to_file_space(&img, super::ColorSpace::Srgb, format),
-                            format,
-                        )
-                    },
-                );
-                p.add(format!("output {}", d.name), stage, inputs, vec![])
-            }
+            OutputFormat::Png8 | OutputFormat::Png16 | OutputFormat::Exr if hashes == 0 => match frames {
+                // The frame count known, the strip is made of the same frame stages as frame
+                // files, so a scene writing both renders each frame once.
+                Some(count) => {
+                    let mut inputs = Inputs::new();
+                    let shown: Vec<In<Image>> =
+                        (0..count).map(|i| inputs.add(frame_stage(p, out.from, transformed, count, i, size))).collect();
+                    let stage = FnStage::keyed(
+                        "output.transform_strip_of_frames",
+                        1,
+                        (shown, size, format),
+                        |cx, (shown, size, format)| {
+                            let img = strip(shown.len(), *size, |k| Ok(cx.get(shown[k])))?;
+                            super::output::encode_image(
+                                &super::output::to_file_space(&img, super::ColorSpace::Srgb, *format),
+                                *format,
+                            )
+                        },
+                    );
+                    p.add(format!("output {}", d.name), stage, inputs, vec![])
+                }
+                None => {
+                    let stage =
+                        FnStage::keyed("output.transform_strip", 2, (h, size, format), |cx, &(h, size, format)| {
+                            let t = cx.get(h);
+                            let frames = chosen(&t, None);
+                            let img = strip(frames.len(), size, |k| render_frame(&t, frames[k], size).map(Arc::new))?;
+                            super::output::encode_image(
+                                &super::output::to_file_space(&img, super::ColorSpace::Srgb, format),
+                                format,
+                            )
+                        });
+                    p.add(format!("output {}", d.name), stage, inputs, vec![])
+                }
+            },
             OutputFormat::Png8 | OutputFormat::Png16 | OutputFormat::Exr => {
                 let Some(count) = frames else {
                     return Err(Diagnostic::error("one file per frame needs the number of frames")
@@ -319,20 +343,13 @@ impl super::Kind for TransformKind {
                 for i in 0..count {
                     let name = format!("{}{:0width$}{}", &d.name[..run], i, &d.name[run + width..]);
                     let mut inputs = Inputs::new();
-                    let h = inputs.add(transformed);
-                    let stage = FnStage::keyed(
-                        "output.transform_frame",
-                        1,
-                        (h, count, i, size, format),
-                        |cx, &(h, count, i, size, format)| {
-                            let t = cx.get(h);
-                            let img = render_frame(&t, chosen(&t, Some(count))[i], size)?;
-                            super::output::encode_image(
-                                &super::output::to_file_space(&img, super::ColorSpace::Srgb, format),
-                                format,
-                            )
-                        },
-                    );
+                    let frame = inputs.add(frame_stage(p, out.from, transformed, count, i, size));
+                    let stage = FnStage::keyed("output.transform_frame", 2, (frame, format), |cx, &(frame, format)| {
+                        super::output::encode_image(
+                            &super::output::to_file_space(&cx.get(frame), super::ColorSpace::Srgb, format),
+                            format,
+                        )
+                    });
                     files.push((name.clone(), p.add(format!("output {name}"), stage, inputs, vec![])));
                 }
                 let first = files[0].1;
@@ -359,6 +376,27 @@ fn chosen(t: &Transformed, frames: Option<usize>) -> Vec<usize> {
     }
 }
 
+/// The render of frame `i` of the `count` evenly spaced frames of `from`'s sequence: one stage
+/// that a strip and the frame files of the same sequence share.
+fn frame_stage(
+    p: &mut Planner,
+    from: &str,
+    transformed: Handle<Transformed>,
+    count: usize,
+    i: usize,
+    size: usize,
+) -> Handle<Image> {
+    p.shared(format!("transform frame {from} {count} {i} {size}"), |p| {
+        let mut inputs = Inputs::new();
+        let h = inputs.add(transformed);
+        let stage = FnStage::keyed("transform.frame", 1, (h, count, i, size), |cx, &(h, count, i, size)| {
+            let t = cx.get(h);
+            render_frame(&t, chosen(&t, Some(count))[i], size)
+        });
+        p.add(format!("{from} frame {i}"), stage, inputs, vec![])
+    })
+}
+
 fn render_frame(t: &Transformed, i: usize, size: usize) -> Result<Image, StageError> {
     let f = &t.record.frames[i];
     let def = lib::shader(&t.shaders[f.shader]).expect("a transformation names library shaders");
@@ -376,25 +414,26 @@ fn strip_frames(n: usize) -> usize {
     n.div_ceil(PER_ROW) * PER_ROW.min(n)
 }
 
-/// Frames side by side, at most 16 to a row.
-fn strip(t: &Transformed, frames: &[usize], size: usize) -> Result<Image, StageError> {
+/// `count` frames side by side, at most 16 to a row; `frame(k)` gives the k-th when its place
+/// is filled, so a strip that renders its own frames holds one at a time.
+fn strip(
+    count: usize,
+    size: usize,
+    frame: impl Fn(usize) -> Result<Arc<Image>, StageError>,
+) -> Result<Image, StageError> {
     let gap = (size / 32).max(2);
-    let cols = frames.len().clamp(1, PER_ROW);
-    let rows = frames.len().div_ceil(PER_ROW).max(1);
+    let cols = count.clamp(1, PER_ROW);
+    let rows = count.div_ceil(PER_ROW).max(1);
     let (w, h) = (cols * size + (cols - 1) * gap, rows * size + (rows - 1) * gap);
     let pixels = w as f64 * h as f64;
     if pixels > 64e6 {
-        return Err(StageError::new(format!(
-            "a strip of {} frames at {size} pixels is {w} x {h}: too large",
-            frames.len()
-        ))
-        .at_prop("frames")
-        .with_help("set fewer `frames` or a smaller `size`"));
+        return Err(StageError::new(format!("a strip of {count} frames at {size} pixels is {w} x {h}: too large"))
+            .at_prop("frames")
+            .with_help("set fewer `frames` or a smaller `size`"));
     }
     let mut out = Image::from_fn(w, h, 3, |_, _, _| 1.0);
-    // One frame in memory at a time.
-    for (k, &i) in frames.iter().enumerate() {
-        let img = render_frame(t, i, size)?;
+    for k in 0..count {
+        let img = frame(k)?;
         let (x0, y0) = ((k % PER_ROW) * (size + gap), (k / PER_ROW) * (size + gap));
         for y in 0..size {
             for x in 0..size {
