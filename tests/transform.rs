@@ -127,6 +127,13 @@ fn frame_files_need_a_frame_count_and_transformations_have_no_views() {
     p.refuses("one run of `#`s", "\"f_#_#.png\"");
     let p = Project::new(&[("scene.tess", &scene("[thin, wide]", "", "output \"t.tess\" {\n  from = t\n}\n"))]);
     p.refuses("`.toml`, `.png` or `.exr`", "\"t.tess\"");
+    let view = "output \"t.png\" {\n  from = t\n  view = edges\n}\n";
+    let p = Project::new(&[("scene.tess", &scene("[thin, wide]", "", view))]);
+    p.refuses("a transformation has no views", "edges");
+    let matched = "match m {\n  target = thin\n  candidates = \"bar\"\n}\n\n\
+                   output \"m.png\" {\n  from = m\n  view = edges\n}\n";
+    let p = Project::new(&[("scene.tess", &scene("[thin, wide]", "", matched))]);
+    p.refuses("a match has no views", "edges");
 }
 
 #[test]

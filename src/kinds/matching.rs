@@ -471,11 +471,7 @@ impl super::Kind for MatchKind {
 
     fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
         let d = out.decl;
-        if out.view != super::View::Auto {
-            return Err(Diagnostic::error("a match has no views: write its record (`.toml`), its scene declaration (`.tess`) or the target beside the match (`.png`)")
-                .with_code("tessera::output_view")
-                .with_label(d.props.span("view").unwrap_or(d.name_span), "remove this"));
-        }
+        out.refuse_views("a match has no views: write its record (`.toml`), its scene declaration (`.tess`) or the target beside the match (`.png`)")?;
         let matched: Handle<Matched> = p.result(out.from);
         let name = out.from.to_string();
         let mut inputs = Inputs::new();

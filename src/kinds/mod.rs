@@ -99,6 +99,19 @@ pub struct OutputRequest<'a> {
     pub ext: &'a str,
 }
 
+impl OutputRequest<'_> {
+    /// Refuses a `view` on the output of a kind that has no views, `message` saying what its
+    /// outputs are instead.
+    pub fn refuse_views(&self, message: impl Into<String>) -> Result<(), Diagnostic> {
+        if self.view == View::Auto {
+            return Ok(());
+        }
+        Err(Diagnostic::error(message)
+            .with_code("tessera::output_view")
+            .with_label(self.decl.props.span("view").unwrap_or(self.decl.name_span), "remove this"))
+    }
+}
+
 /// A planned view: the node producing the file's bytes, and whether its values are
 /// identities compared exactly by the golden check.
 pub struct ViewNode {

@@ -17,7 +17,7 @@
 
 use glam::{Vec3, Vec4};
 
-use super::output::{to_file_space, View};
+use super::output::to_file_space;
 use super::representation::Relightable;
 use super::{Bytes, ColorSpace, FnStage, OutputFormat, Planner};
 use crate::graph::{AnyHandle, Handle, In, Inputs, RunCx, StageError};
@@ -404,11 +404,7 @@ impl super::Kind for ModelKind {
 
     fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
         let d = out.decl;
-        if out.view != View::Auto {
-            return Err(Diagnostic::error("a model has no views: its outputs are renders (`.png`), `.obj` and `.glb`")
-                .with_code("tessera::output_view")
-                .with_label(d.props.span("view").unwrap_or(d.name_span), "remove this"));
-        }
+        out.refuse_views("a model has no views: its outputs are renders (`.png`), `.obj` and `.glb`")?;
         let model: Handle<Model> = p.result(out.from);
         let space = p.color_space(out.from);
         let mut inputs = Inputs::new();

@@ -199,13 +199,9 @@ impl super::Kind for ProceduralKind {
 
     fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
         let d = out.decl;
-        if out.view != super::View::Auto {
-            return Err(Diagnostic::error(
-                "a procedural texture has no views: write its parameters (`.toml`) or a render (`.png`, `.exr`)",
-            )
-            .with_code("tessera::output_view")
-            .with_label(d.props.span("view").unwrap_or(d.name_span), "remove this"));
-        }
+        out.refuse_views(
+            "a procedural texture has no views: write its parameters (`.toml`) or a render (`.png`, `.exr`)",
+        )?;
         let params: Handle<Procedural> = p.result(out.from);
         let mut inputs = Inputs::new();
         let params = inputs.add(params);

@@ -261,11 +261,7 @@ impl super::Kind for TransformKind {
 
     fn plan_output(&self, p: &mut Planner, out: &super::OutputRequest) -> Result<Option<super::ViewNode>, Diagnostic> {
         let d = out.decl;
-        if out.view != super::View::Auto {
-            return Err(Diagnostic::error("a transformation has no views: write its record (`.toml`), a strip of its frames (`.png`) or one file per frame (`frame_###.png`)")
-                .with_code("tessera::output_view")
-                .with_label(d.props.span("view").unwrap_or(d.name_span), "remove this"));
-        }
+        out.refuse_views("a transformation has no views: write its record (`.toml`), a strip of its frames (`.png`) or one file per frame (`frame_###.png`)")?;
         let src = p.decl(out.from);
         let frames = src.props.opt_int("frames").map(|n| n as usize);
         let size = src.props.int("size") as usize;

@@ -314,11 +314,7 @@ pub fn plan(p: &mut Planner, d: &Decl) -> Result<Handle<Bytes>, Diagnostic> {
         return Ok(v.node);
     }
     let src = p.decl(from);
-    if view != View::Auto {
-        return Err(Diagnostic::error(format!("`view` applies to structures and layers, not to a {}", src.kind))
-            .with_code("tessera::output_view")
-            .with_label(d.props.span("view").unwrap_or(d.name_span), "remove this"));
-    }
+    request.refuse_views(format!("`view` applies to structures and layers, not to a {}", src.kind))?;
     if format.is_text() {
         return Err(Diagnostic::error(format!("a {} is written as an image, not as `.{ext}`", src.kind))
             .with_code("tessera::output_format")
