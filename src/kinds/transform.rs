@@ -272,12 +272,17 @@ impl super::Kind for TransformKind {
             p.check_pixels(src, src.props.span("size"), (size, size * n), BYTES_PER_PIXEL)?;
         }
         let transformed: Handle<Transformed> = p.result(out.from);
+        // The inputs of a stage that reads the whole path.
+        let on_path = || {
+            let mut inputs = Inputs::new();
+            let h = inputs.add(transformed);
+            (inputs, h)
+        };
         let hashes = d.name.matches('#').count();
-        let mut inputs = Inputs::new();
-        let h = inputs.add(transformed);
         let format = out.format;
         let node = match format {
             OutputFormat::Toml if hashes == 0 => {
+                let (inputs, h) = on_path();
                 let stage = FnStage::keyed("output.transform_record", 1, (h, frames), |cx, &(h, frames)| {
                     Ok(Bytes(record_toml(&cx.get(h), frames).into_bytes()))
                 });
@@ -305,6 +310,7 @@ impl super::Kind for TransformKind {
                     p.add(format!("output {}", d.name), stage, inputs, vec![])
                 }
                 None => {
+                    let (inputs, h) = on_path();
                     let stage =
                         FnStage::keyed("output.transform_strip", 2, (h, size, format), |cx, &(h, size, format)| {
                             let t = cx.get(h);
@@ -427,7 +433,7 @@ fn strip(
             .at_prop("frames")
             .with_help("set fewer `frames` or a smaller `size`"));
     }
-    let mut out = Image::from_fn(w, h, 3, |_, _, _| 1.0);
+    let mut out = Image::filled(w, h, 3, 1.0);
     for k in 0..count {
         let img = frame(k)?;
         let (x0, y0) = ((k % PER_ROW) * (size + gap), (k / PER_ROW) * (size + gap));

@@ -199,6 +199,12 @@ pub fn isolation(rows: &[Vec<f64>], roughness: &[f64], cfg: &CatalogueConfig) ->
         .collect()
 }
 
+/// The index among `candidates` with the largest score, ties to the lowest index (a fixed
+/// choice); `None` when there are no candidates.
+pub(super) fn largest(score: &[f64], candidates: impl Iterator<Item = usize>) -> Option<usize> {
+    candidates.max_by(|&a, &b| score[a].total_cmp(&score[b]).then(b.cmp(&a)))
+}
+
 /// Indices sorted by a score, largest first, ties by index (a fixed order).
 fn ranked(score: &[f64]) -> Vec<usize> {
     let mut idx: Vec<usize> = (0..score.len()).collect();
@@ -322,7 +328,7 @@ impl<O: Oracle> Builder<'_, O> {
             };
             if row.iter().any(|&e| e > self.cfg.omega) {
                 duplicates += 1;
-                let twin = (0..row.len()).max_by(|&a, &b| row[a].total_cmp(&row[b]).then(b.cmp(&a))).expect("a row");
+                let twin = largest(&row, 0..row.len()).expect("a row");
                 self.mass[twin] += mass;
                 continue;
             }
@@ -453,10 +459,7 @@ pub fn build<O: Oracle>(oracle: &O, cfg: &CatalogueConfig, seed: u64) -> Catalog
             let mut kept = vec![true; b.rows.len()];
             gone.iter().for_each(|&g| kept[g] = false);
             for &g in &gone {
-                let row = &b.rows[g];
-                let heir =
-                    (0..row.len()).filter(|&v| kept[v]).max_by(|&x, &y| row[x].total_cmp(&row[y]).then(y.cmp(&x)));
-                if let Some(h) = heir {
+                if let Some(h) = largest(&b.rows[g], (0..kept.len()).filter(|&v| kept[v])) {
                     b.mass[h] += b.mass[g];
                 }
             }

@@ -26,7 +26,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::catalogue::Catalogue;
+use super::catalogue::{largest, Catalogue};
 use super::jump::JumpSet;
 use super::path::{pnorm_path, Graph};
 use super::probe::{feature, similarity, Feature};
@@ -146,7 +146,7 @@ impl Renderer<'_> {
 /// graph, Sec. 5.2; a leg's graph joins its keys to every vertex, which includes this one).
 pub fn nearest_vertex(f: &Feature, catalogue: &Catalogue<Feature>) -> Option<usize> {
     let s: Vec<f64> = catalogue.features.par_iter().map(|g| similarity(f, g)).collect();
-    (0..s.len()).max_by(|&a, &b| s[a].total_cmp(&s[b]).then(b.cmp(&a)))
+    largest(&s, 0..s.len())
 }
 
 /// Luminance box-averaged to `THUMB²`.
