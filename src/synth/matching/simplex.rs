@@ -14,6 +14,8 @@
 //! (relative) or at the cap; the search then restarts once from its best point, as the thesis
 //! did.
 
+use std::collections::HashMap;
+
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -68,10 +70,15 @@ pub fn minimise(
 ) -> LocalResult {
     let n = x0.len();
     let mut evaluations = 0;
+    // Snapping maps many of the simplex's points onto one (whole numbers, the box's walls):
+    // each distinct point is rendered once.
+    let mut seen: HashMap<Vec<u64>, f64> = HashMap::new();
     let mut eval = |x: &mut Vec<f64>| {
         into_box(x, &snap);
-        evaluations += 1;
-        loss(x)
+        *seen.entry(x.iter().map(|v| v.to_bits()).collect()).or_insert_with(|| {
+            evaluations += 1;
+            loss(x)
+        })
     };
     let mut best_x = x0.to_vec();
     let mut best = eval(&mut best_x);

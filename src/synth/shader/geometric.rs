@@ -4,7 +4,7 @@
 
 use super::def::{Pattern, ShaderDef};
 use super::params::{Args, ParamDef as P};
-use super::prims::{cell_random, coverage, filtered_pulse_train, floor, mix, plastic, scale};
+use super::prims::{cell_random, coverage, filtered_pulse_train, floor, length, mix, plastic, scale};
 
 /// The texture-map tiling convention: the unit square repeats.
 #[inline]
@@ -239,7 +239,7 @@ pub static CIRCLE: ShaderDef = ShaderDef {
         P::colour("background", &[0.1, 0.15, 0.3], "Around it."),
     ],
     stochastic: false,
-    version: 1,
+    version: 2,
     build: |v, _| {
         let mut a = Args::new(v);
         Box::new(Circle { radius: a.f(), colour: a.c(), background: a.c() })
@@ -254,7 +254,7 @@ struct Circle {
 
 impl Pattern for Circle {
     fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3] {
-        let d = centred(u).hypot(centred(v)) - self.radius;
+        let d = length(centred(u), centred(v)) - self.radius;
         mix(self.background, self.colour, coverage(d, fw))
     }
 }
@@ -270,7 +270,7 @@ pub static SUPERELLIPSE: ShaderDef = ShaderDef {
         P::colour("background", &[0.1, 0.15, 0.3], "Around it."),
     ],
     stochastic: false,
-    version: 2,
+    version: 3,
     build: |v, _| {
         let mut a = Args::new(v);
         Box::new(Superellipse { a: a.f(), b: a.f(), n: a.f(), colour: a.c(), background: a.c() })
@@ -317,7 +317,7 @@ impl Superellipse {
             f64::INFINITY
         };
         let (gx, gy) = if x >= y { (g_big, g_small) } else { (g_small, g_big) };
-        (f - 1.0) / (gx / self.a).hypot(gy / self.b)
+        (f - 1.0) / length(gx / self.a, gy / self.b)
     }
 }
 
@@ -340,7 +340,7 @@ pub static STAR: ShaderDef = ShaderDef {
         P::colour("background", &[1.0, 1.0, 1.0], "Around it."),
     ],
     stochastic: false,
-    version: 1,
+    version: 2,
     build: |v, _| {
         let mut a = Args::new(v);
         let (points, inner, outer, ka, kd) = (a.f(), a.f(), a.f(), a.f(), a.f());
@@ -376,7 +376,7 @@ pub fn star_pattern(points: f64, inner: f64, outer: f64) -> impl Pattern {
 impl Pattern for Star {
     fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3] {
         let (x, y) = (centred(u), centred(v));
-        let r = x.hypot(y);
+        let r = length(x, y);
         // Angle from straight up (v grows downward), folded into half a wedge.
         let turn = x.atan2(-y);
         let mut a = turn - self.wedge * floor(turn / self.wedge);
@@ -385,7 +385,7 @@ impl Pattern for Star {
         }
         let q = [r * a.cos(), r * a.sin()];
         let e = [self.notch[0] - self.tip[0], self.notch[1] - self.tip[1]];
-        let len = e[0].hypot(e[1]);
+        let len = length(e[0], e[1]);
         if len == 0.0 {
             return self.background;
         }

@@ -5,7 +5,7 @@
 use super::def::{Pattern, ShaderDef};
 use super::params::{Args, ParamDef as P};
 use super::prims::{
-    cell_random, coverage, fbm, floor, mix, octave_count, octave_weight, plastic, scale, smoothstep, snoise,
+    cell_random, coverage, fbm, floor, length, mix, octave_count, octave_weight, plastic, scale, smoothstep, snoise,
     turbulence, vl_noise,
 };
 
@@ -26,7 +26,7 @@ pub static CYCLONE: ShaderDef = ShaderDef {
         P::colour("background", &[0.0, 0.0, 0.0], "Behind them."),
     ],
     stochastic: true,
-    version: 1,
+    version: 2,
     build: |v, seed| {
         let mut a = Args::new(v);
         let (ka, kd) = (a.f(), a.f());
@@ -61,7 +61,7 @@ struct Cyclone {
 impl Pattern for Cyclone {
     fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3] {
         let (x, y) = (u - 0.5, v - 0.5);
-        let radius = x.hypot(y);
+        let radius = length(x, y);
         let r = self.max_radius;
         // The swirl: a turn that grows toward the eye; the rim and the eye fade out smoothly.
         let dist = (r - radius).max(0.0).powi(3);
@@ -116,7 +116,7 @@ pub static EYEBALL: ShaderDef = ShaderDef {
         P::int("index", 0, 1000, &[0.0], "Which vein network (offsets the noise; a search leaves it alone: any network looks alike).").fixed(),
     ],
     stochastic: true,
-    version: 2,
+    version: 3,
     build: |v, seed| {
         let mut a = Args::new(v);
         let (ka, kd, ks, _roughness) = (a.f(), a.f(), a.f(), a.f());
@@ -163,7 +163,7 @@ struct Eyeball {
 impl Pattern for Eyeball {
     fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3] {
         // `tt`, the distance from the pole, is the distance from the square's centre.
-        let tt = (u - 0.5).hypot(v - 0.5);
+        let tt = length(u - 0.5, v - 0.5);
         let twidth = fw.max(1e-4);
         let iris_stat = smoothstep(self.iris_size, self.iris_size + twidth, tt);
         let pupil_stat = smoothstep(self.pupil_size, self.pupil_size + twidth, tt);
@@ -273,7 +273,7 @@ pub static STARFIELD: ShaderDef = ShaderDef {
         P::colour("star", &[1.0, 0.97, 0.85], "The stars."),
     ],
     stochastic: true,
-    version: 2,
+    version: 3,
     build: |v, seed| {
         let mut a = Args::new(v);
         Box::new(Starfield {
@@ -310,7 +310,7 @@ impl Starfield {
         let sx = i as f64 + cell_random(i, j, self.seed ^ 0x85eb_ca6b);
         let sy = j as f64 + cell_random(i, j, self.seed ^ 0xc2b2_ae35);
         let brightness = presence * (1.0 - self.twinkle * cell_random(i, j, self.seed ^ 0x27d4_eb2f));
-        brightness * coverage((x - sx).hypot(y - sy) - drawn, w)
+        brightness * coverage(length(x - sx, y - sy) - drawn, w)
     }
 }
 

@@ -22,6 +22,13 @@ pub fn floor(x: f64) -> f64 {
     }
 }
 
+/// √(x² + y²). Not `f64::hypot`: libm's guards against overflow and underflow cost a tenth
+/// of a matching run, and the shaders only measure distances of a few texture units.
+#[inline(always)]
+pub fn length(x: f64, y: f64) -> f64 {
+    (x * x + y * y).sqrt()
+}
+
 /// x − ⌊x⌋.
 #[inline(always)]
 pub fn fract(x: f64) -> f64 {
