@@ -53,6 +53,10 @@ enum Command {
         /// Quiet time after a change before rebuilding, in milliseconds.
         #[arg(long, default_value_t = 30)]
         debounce: u64,
+        /// Also serve a live preview page of the outputs at this address (default
+        /// 127.0.0.1 and a free port; the URL is printed).
+        #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:0")]
+        serve: Option<String>,
     },
     /// Build scenes and compare their outputs with the goldens.
     Check { paths: Vec<PathBuf> },
@@ -66,6 +70,9 @@ enum Command {
         #[arg(long)]
         prune: bool,
     },
+    /// Build and check scenes, then write every output beside its golden and the difference
+    /// as a static web page, `out/.gallery/index.html` (a CI artefact, a README picture).
+    Gallery { paths: Vec<PathBuf> },
     /// Check scenes, then walk the failing outputs one by one: accept (bless it), reject,
     /// skip or quit, answered on stdin.
     Review { paths: Vec<PathBuf> },
@@ -183,9 +190,12 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Build { paths } => commands::scenes(&g, &paths, Mode::Build),
         Command::Check { paths } => commands::scenes(&g, &paths, Mode::Check),
+        Command::Gallery { paths } => commands::scenes(&g, &paths, Mode::Gallery),
         Command::Bless { targets, prune } => commands::bless(&g, &targets, prune),
         Command::Review { paths } => commands::scenes(&g, &paths, Mode::Review),
-        Command::Watch { scene, debounce } => commands::watch(&g, &scene, Duration::from_millis(debounce)),
+        Command::Watch { scene, debounce, serve } => {
+            commands::watch(&g, &scene, Duration::from_millis(debounce), serve.as_deref())
+        }
         Command::Fmt { paths, check } => commands::fmt(&g, &paths, check),
         Command::Explain { kind, markdown } => commands::explain(kind.as_deref(), markdown),
         Command::Graph { scene, dot } => commands::graph(&g, &scene, dot),

@@ -60,6 +60,22 @@ impl Diagnostics {
     pub fn reports(&self) -> Vec<miette::Report> {
         self.items.iter().map(|d| miette::Report::new(render(d, &self.sources))).collect()
     }
+
+    /// Each diagnostic drawn as miette draws it (source excerpt, labels, help) in `theme`,
+    /// `width` columns wide, one after another.
+    pub fn draw(&self, theme: miette::GraphicalTheme, width: usize) -> Vec<String> {
+        let handler = miette::GraphicalReportHandler::new_themed(theme).with_width(width);
+        self.items
+            .iter()
+            .map(|item| {
+                let mut out = String::new();
+                match handler.render_report(&mut out, &render(item, &self.sources)) {
+                    Ok(()) => out,
+                    Err(_) => format!("error: {}", item.message),
+                }
+            })
+            .collect()
+    }
 }
 
 impl fmt::Display for Diagnostics {

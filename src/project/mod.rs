@@ -7,6 +7,7 @@ pub mod commands;
 pub mod format;
 mod goldens;
 pub mod manifest;
+pub mod preview;
 mod show;
 pub mod texture;
 mod watch;

@@ -25,7 +25,7 @@ pub enum WatchEvent<'a> {
 /// Builds `scene`, then rebuilds on every change of a file the last build read, forever.
 /// A failed build keeps the previous outputs and is retried on the next change; the files it
 /// tried to read are followed too, so creating a missing one (or its directory) rebuilds.
-pub fn watch(project: &mut Project, scene: &Path, debounce: Duration, mut on: impl FnMut(WatchEvent)) {
+pub fn watch(project: &mut Project, scene: &Path, debounce: Duration, mut on: impl FnMut(&Project, WatchEvent)) {
     project.memory.get_or_insert_with(MemoryCache::default);
     let mut watcher = Watcher::new();
     // The scene is followed before the first build, and each build's files before its
@@ -42,11 +42,11 @@ pub fn watch(project: &mut Project, scene: &Path, debounce: Duration, mut on: im
         files.push(scene.to_path_buf());
         watcher.follow(files, Some(started));
         for w in watcher.take_warnings() {
-            on(WatchEvent::Warning(w));
+            on(project, WatchEvent::Warning(w));
         }
         match &result {
-            Ok((built, emitted)) => on(WatchEvent::Built { built, emitted, millis }),
-            Err(failed) => on(WatchEvent::Failed { failed }),
+            Ok((built, emitted)) => on(project, WatchEvent::Built { built, emitted, millis }),
+            Err(failed) => on(project, WatchEvent::Failed { failed }),
         }
         watcher.wait(debounce);
     }

@@ -66,6 +66,31 @@ pub fn image_linear_to_srgb(img: &Image) -> Image {
     map_colour_samples(img, linear_to_srgb)
 }
 
+/// A picture of linear values for a screen (previews of EXR outputs). Values in `[0, 1]`
+/// are linear light and are sRGB-encoded; brighter ones are compressed first by the
+/// extended Reinhard curve `v (1 + v / w²) / (1 + v)` with the brightest value as white `w`,
+/// so nothing clips; an image with negative values is data (a height, a signed offset) and is
+/// stretched from its smallest to its largest value instead. Not-a-numbers show as 0; alpha
+/// and extra channels are unchanged.
+pub fn tone_map_preview(img: &Image) -> Image {
+    let end = (colour_channels(img) * img.plane_len()).min(img.data.len());
+    let finite = || img.data[..end].iter().copied().filter(|v| v.is_finite());
+    let lo = finite().fold(0.0f32, f32::min);
+    let hi = finite().fold(0.0f32, f32::max);
+    let mut out = img.clone();
+    for v in &mut out.data[..end] {
+        let x = if v.is_finite() { *v } else { 0.0 };
+        *v = if lo < 0.0 {
+            (x - lo) / (hi - lo).max(f32::MIN_POSITIVE)
+        } else if hi > 1.0 {
+            linear_to_srgb(x * (1.0 + x / (hi * hi)) / (1.0 + x))
+        } else {
+            linear_to_srgb(x)
+        };
+    }
+    out
+}
+
 /// Linear sRGB (D65) to CIE XYZ, rows X, Y, Z (Lindbloom's values for IEC 61966-2-1).
 const RGB_TO_XYZ: [[f64; 3]; 3] = [
     [0.412_456_4, 0.357_576_1, 0.180_437_5],
@@ -242,6 +267,24 @@ mod tests {
 
     fn close(a: f32, b: f32, eps: f32) -> bool {
         (a - b).abs() <= eps
+    }
+
+    #[test]
+    fn previews_encode_light_compress_highlights_and_stretch_signed_data() {
+        let img = |v: Vec<f32>| {
+            let mut i = Image::new(2, 1, 1);
+            i.data = v;
+            i
+        };
+        let light = tone_map_preview(&img(vec![0.0, 0.214_041_14]));
+        assert!(close(light.data[1], 0.5, 1e-5));
+        let hdr = tone_map_preview(&img(vec![0.5, 8.0]));
+        assert!(close(hdr.data[1], 1.0, 1e-6), "the brightest is white");
+        assert!(hdr.data[0] > 0.0 && hdr.data[0] < linear_to_srgb(0.5));
+        let signed = tone_map_preview(&img(vec![-2.0, 2.0]));
+        assert_eq!(signed.data, vec![0.0, 1.0]);
+        let nan = tone_map_preview(&img(vec![f32::NAN, f32::INFINITY]));
+        assert_eq!(nan.data, vec![0.0, 0.0]);
     }
 
     #[test]

@@ -241,9 +241,14 @@ pub fn failed_build(name: &str, scene: &str, extra: &[(&str, &[u8])]) -> String 
 /// Starts `tessera watch SCENE` in `p` and a reader of its stdout and stderr lines (in the
 /// order they arrive, the two streams interleaved).
 pub fn spawn_watch(p: &Project, scene: &str) -> (std::process::Child, std::sync::mpsc::Receiver<String>) {
+    spawn_tessera(p, &["watch", scene])
+}
+
+/// Starts `tessera ARGS` in `p` and a reader of its stdout and stderr lines, interleaved.
+pub fn spawn_tessera(p: &Project, args: &[&str]) -> (std::process::Child, std::sync::mpsc::Receiver<String>) {
     use std::io::{BufRead, BufReader};
     let mut child = Command::new(bin())
-        .args(["watch", scene])
+        .args(args)
         .current_dir(p.dir.path())
         .env("NO_COLOR", "1")
         .stdout(Stdio::piped())

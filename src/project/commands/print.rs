@@ -4,13 +4,13 @@
 
 use std::path::Path;
 
-use miette::{GraphicalReportHandler, GraphicalTheme};
+use miette::GraphicalTheme;
 use serde_json::json;
 
 use super::messages;
 use super::{Global, Reported};
 use crate::graph::Report;
-use crate::lang::{self, Diagnostics};
+use crate::lang::Diagnostics;
 use crate::project::{self, Built, CheckRow, CheckStatus, Emitted, Failed, Project};
 
 pub(super) fn print_failed(f: &Failed) -> Reported {
@@ -31,15 +31,8 @@ pub(super) fn diagnostics(d: &Diagnostics) {
     } else {
         GraphicalTheme::unicode_nocolor()
     };
-    let handler = GraphicalReportHandler::new_themed(theme).with_width(100);
-    for item in &d.items {
-        let rendered = lang::diag::render(item, &d.sources);
-        let mut out = String::new();
-        if handler.render_report(&mut out, &rendered).is_ok() {
-            eprintln!("{out}");
-        } else {
-            eprintln!("error: {}", item.message);
-        }
+    for drawn in d.draw(theme, 100) {
+        eprintln!("{drawn}");
     }
 }
 

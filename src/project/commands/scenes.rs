@@ -11,7 +11,7 @@ use super::print::{self, print_failed};
 use super::{review, Global, Outcome, Reported};
 use crate::graph::progress::ScenesBar;
 use crate::lang::diag::suggest;
-use crate::project::{self, Built, CheckRow, CheckStatus, Failed, Project};
+use crate::project::{self, preview, Built, CheckRow, CheckStatus, Failed, Project};
 
 /// What happens to a scene once it is built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -25,6 +25,9 @@ pub enum Mode {
     Bless { prune: bool },
     /// Check, then walk the failing outputs one by one (`tessera review`).
     Review,
+    /// Write its outputs, compare them with the goldens, and show everything on a static
+    /// page (`tessera gallery`); differences are shown, not failures.
+    Gallery,
 }
 
 impl Mode {
@@ -35,6 +38,7 @@ impl Mode {
             Mode::Check => "check",
             Mode::Bless { .. } => "bless",
             Mode::Review => "review",
+            Mode::Gallery => "gallery",
         }
     }
 }
@@ -132,15 +136,23 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
     let mut built_names = Vec::new();
     let mut claims = project::Claims::default();
     let mut tally = print::Tally { scenes: scenes.len(), ..Default::default() };
+    let mut views = Vec::new();
+    let mut links = p.gallery_links();
     let bar = ScenesBar::new(scenes.len(), p.progress);
     for scene in &scenes {
         bar.start(&print::shown(scene).display().to_string());
         p.world.begin_build();
         let built = build_and_emit(g, p, scene, &mut claims, &mut tally, &bar);
         bar.advance();
-        let Ok(built) = built else {
-            failed = true;
-            continue;
+        let built = match built {
+            Ok(built) => built,
+            Err(f) => {
+                failed = true;
+                if mode == Mode::Gallery {
+                    views.push(preview::failed_view(&print::shown(scene), None, &f));
+                }
+                continue;
+            }
         };
         built_names.push(built.name.clone());
         reports.push(serde_json::json!({
@@ -152,6 +164,10 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
             Mode::Build => Ok(()),
             Mode::Bless { prune } => bless_scene(g, p, &built, selection.of(&built.name), prune, &names),
             Mode::Check | Mode::Review => check_scene(p, &built, &names, mode == Mode::Check, &mut rows),
+            Mode::Gallery => p.check(&built).map_err(|f| print_failed(&f)).map(|r| {
+                views.push(p.scene_view(&built, &r, &mut links));
+                rows.extend(r);
+            }),
         });
         failed |= done.is_err();
         if mode == Mode::Review {
@@ -173,10 +189,18 @@ fn run(g: &Global, p: &Project, paths: &[PathBuf], mode: Mode, selection: &Selec
             failed |= rows.iter().any(|r| r.status != CheckStatus::Pass);
         }
         Mode::Review => failed |= review::walk(g, p, &builts, &rows).is_err(),
+        Mode::Gallery => match links.finish().and_then(|()| preview::write_gallery(p, views)) {
+            Ok(index) if !g.quiet && !messages::json() => println!("gallery: {}", print::shown(&index).display()),
+            Ok(_) => {}
+            Err(f) => {
+                print_failed(&f);
+                failed = true;
+            }
+        },
         Mode::Build | Mode::Bless { .. } => {}
     }
     tally.built = reports.len();
-    let checked = matches!(mode, Mode::Check | Mode::Review).then_some(&rows[..]);
+    let checked = matches!(mode, Mode::Check | Mode::Review | Mode::Gallery).then_some(&rows[..]);
     print::summary(mode.name(), &tally, checked, failed);
     if failed {
         Err(Reported)
@@ -261,12 +285,16 @@ fn build_and_emit(
     claims: &mut project::Claims,
     tally: &mut print::Tally,
     bar: &ScenesBar,
-) -> Result<Built, Reported> {
+) -> Result<Built, Failed> {
     let built = p.build(scene);
     bar.suspend(|| {
-        let built = built.map_err(|f| print_failed(&f))?;
-        claims.claim(&built).map_err(|f| print_failed(&f))?;
-        let emitted = p.emit(&built).map_err(|f| print_failed(&f))?;
+        let printed = |f: Failed| {
+            print_failed(&f);
+            f
+        };
+        let built = built.map_err(printed)?;
+        claims.claim(&built).map_err(printed)?;
+        let emitted = p.emit(&built).map_err(printed)?;
         print::warnings(Some(&built.name), &built.report);
         tally.outputs += emitted.len();
         tally.written += emitted.iter().filter(|e| e.written).count();
