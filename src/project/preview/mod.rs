@@ -62,8 +62,14 @@ pub struct OutputView {
     pub diff_image: Option<String>,
     pub width: Option<u32>,
     pub height: Option<u32>,
+    /// A text output's text (up to [`TEXT_INLINE`] bytes): a static page opened from disk
+    /// may not fetch files beside it.
+    pub text: Option<String>,
     pub compare: Option<CompareView>,
 }
+
+/// Largest text output held in the page's state.
+const TEXT_INLINE: usize = 256 * 1024;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct CompareView {
@@ -140,6 +146,9 @@ impl Project {
                         .and_then(|d| links.link(d, Use::Picture)),
                     width: dims.map(|d| d.0),
                     height: dims.map(|d| d.1),
+                    text: (view == "text" && bytes.0.len() <= TEXT_INLINE)
+                        .then(|| String::from_utf8(bytes.0.clone()).ok())
+                        .flatten(),
                     compare: row.map(|r| CompareView {
                         status: r.status,
                         max_abs: r.max_abs,
