@@ -249,6 +249,18 @@ fn only_outputs_goldens_and_read_samples_are_served() {
 }
 
 #[test]
+fn with_json_messages_the_address_is_a_json_line() {
+    let p = project();
+    let (mut child, lines) = common::spawn_tessera(&p, &["watch", "scene.tess", "--serve", "--message-format", "json"]);
+    let first = lines.recv_timeout(Duration::from_secs(20)).expect("a line");
+    let _ = child.kill();
+    let _ = child.wait();
+    let v: serde_json::Value = serde_json::from_str(&first).unwrap_or_else(|_| panic!("not JSON: {first}"));
+    assert_eq!(v["type"], "preview");
+    assert!(v["url"].as_str().unwrap().starts_with("http://127.0.0.1:"), "{v}");
+}
+
+#[test]
 fn a_taken_address_is_a_diagnostic_not_a_panic() {
     let p = project();
     let s = Served::start(&p);

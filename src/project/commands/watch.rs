@@ -28,7 +28,11 @@ pub fn watch(g: &Global, scene: &Path, debounce: Duration, serve: Option<&str>) 
         if !preview.addr.ip().is_loopback() {
             eprintln!("warning: the preview is served on {}: anyone who can reach it sees the outputs", preview.addr);
         }
-        println!("[watch] preview at {}", preview.url());
+        if messages::json() {
+            messages::emit(serde_json::json!({ "type": "preview", "url": preview.url() }));
+        } else {
+            println!("[watch] preview at {}", preview.url());
+        }
         let _ = std::io::stdout().flush();
     }
     let (quiet, timings) = (g.quiet, g.timings);

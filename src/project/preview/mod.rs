@@ -62,7 +62,7 @@ pub struct OutputView {
     pub diff_image: Option<String>,
     pub width: Option<u32>,
     pub height: Option<u32>,
-    /// A text output's text (up to [`TEXT_INLINE`] bytes): a static page opened from disk
+    /// A text output's text (up to 256 KiB): a static page opened from disk
     /// may not fetch files beside it.
     pub text: Option<String>,
     pub compare: Option<CompareView>,
