@@ -240,7 +240,7 @@ fn dimensions(format: OutputFormat, bytes: &[u8]) -> Option<(u32, u32)> {
 
 /// The content type of a file served or linked, by its extension.
 pub(crate) fn content_type(path: &Path) -> &'static str {
-    match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+    match extension(path).as_deref() {
         Some("png") => "image/png",
         Some("svg") => "image/svg+xml",
         Some("json") => "application/json",
@@ -255,18 +255,21 @@ pub(crate) fn content_type(path: &Path) -> &'static str {
 /// A picture of an image file a browser can draw: PNG and SVG as they are; anything else
 /// the raster layer decodes (EXR), tone-mapped to an 8-bit PNG.
 pub(crate) fn picture_bytes(path: &Path, bytes: Vec<u8>) -> Result<Vec<u8>, String> {
-    match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
-        Some("png" | "svg") => Ok(bytes),
-        _ => {
-            let img = crate::raster::io::decode(&bytes).map_err(|e| e.to_string())?;
-            crate::raster::io::encode_png(&crate::raster::color::tone_map_preview(&img), 8).map_err(|e| e.to_string())
-        }
+    if !converted(path) {
+        return Ok(bytes);
     }
+    let img = crate::raster::io::decode(&bytes).map_err(|e| e.to_string())?;
+    crate::raster::io::encode_png(&crate::raster::color::tone_map_preview(&img), 8).map_err(|e| e.to_string())
 }
 
 /// Whether `path` names a picture that [`picture_bytes`] converts (its link gets a `.png`).
 pub(crate) fn converted(path: &Path) -> bool {
-    !matches!(path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref(), Some("png" | "svg"))
+    !matches!(extension(path).as_deref(), Some("png" | "svg"))
+}
+
+/// The lower-cased extension of `path`, if it has one.
+fn extension(path: &Path) -> Option<String> {
+    path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase())
 }
 
 /// `path` below the project root, if it is.
