@@ -70,7 +70,7 @@ pub fn plan(p: &mut Planner, d: &Decl, sample: &str) -> Result<Handle<Image>, Di
         pixel: 1.0 / props.num("zoom"),
         origin: props.vec2("origin"),
     };
-    let stage = FnStage::keyed("layer.tiling", 3, tiling, run);
+    let stage = FnStage::keyed("layer.tiling", 4, tiling, run);
     Ok(p.add(format!("layer {}", d.name), stage, inputs, vec![]))
 }
 

@@ -680,12 +680,10 @@ pub fn render(
             let mut row = Row::new(prep, &setup, v0 + ((b * band_rows + r) as f64 + 0.5) * dv);
             let u = |x: usize| u0 + (x as f64 + 0.5) * du;
             if setup.hex && setup.gain == 1.0 {
-                for (i, pair) in corners.chunks_mut(2).enumerate() {
-                    match pair {
-                        [a, b] => [*a, *b] = row.hex_corners(u(2 * i), u(2 * i + 1)),
-                        [a] => *a = row.corner(u(2 * i)),
-                        _ => {}
-                    }
+                for (i, quad) in corners.chunks_mut(4).enumerate() {
+                    let at = |k: usize| u((4 * i + k).min(width - 1));
+                    let found = row.hex_corners([at(0), at(1), at(2), at(3)]);
+                    quad.copy_from_slice(&found[..quad.len()]);
                 }
             } else {
                 for (x, corner) in corners.iter_mut().enumerate() {
@@ -864,6 +862,11 @@ impl<'a> Row<'a> {
     fn corner(&self, u: f64) -> Corner {
         let setup = self.setup;
         let (bx, lower, bary) = self.place(u);
+        if setup.hex && setup.gain == 1.0 {
+            // The lanes of `hex_corners`, so a point alone has the bits it has in a row.
+            let w = hex_weights(bary.map(|b| Vec4::splat(b as f32)));
+            return Corner { bx, lower, weights: [w[0].x, w[1].x, w[2].x] };
+        }
         // The barycentric weights are non-negative and sum to one: exponent 1 needs no sharpening.
         let mut weights = if setup.exponent == 1.0 { bary } else { sharpen(bary, setup.exponent) };
         if setup.hex && setup.gain != 1.0 {
@@ -872,13 +875,19 @@ impl<'a> Row<'a> {
         Corner::new(bx, lower, weights)
     }
 
-    /// [`Row::corner`] of two points on the hex grid with the default contrast: their sharpenings
-    /// side by side, which the compiler pairs into two-lane divisions (the hex grid's main cost).
+    /// [`Row::corner`] of four points on the hex grid with the default contrast: their weights
+    /// computed side by side, one point per lane (the hex grid's main cost).
     #[inline(always)]
-    fn hex_corners(&self, ua: f64, ub: f64) -> [Corner; 2] {
-        let ((bxa, lowera, a), (bxb, lowerb, b)) = (self.place(ua), self.place(ub));
-        let [wa, wb] = sharpen_pair(a, b);
-        [Corner::new(bxa, lowera, wa), Corner::new(bxb, lowerb, wb)]
+    fn hex_corners(&self, u: [f64; 4]) -> [Corner; 4] {
+        let placed = u.map(|u| self.place(u));
+        let lane = |k: usize| Vec4::from_array(placed.map(|(_, _, bary)| bary[k] as f32));
+        let w = hex_weights([lane(0), lane(1), lane(2)]);
+        let mut k = 0;
+        placed.map(|(bx, lower, _)| {
+            let corner = Corner { bx, lower, weights: [w[0][k], w[1][k], w[2][k]] };
+            k += 1;
+            corner
+        })
     }
 
     /// u's cell column, whether it is in the cell's lower triangle, and its barycentric weights.
@@ -1035,23 +1044,18 @@ fn sharpen(w: [f64; 3], exponent: f64) -> [f64; 3] {
     [p[0] / sum, p[1] / sum, p[2] / sum]
 }
 
-/// [`sharpen`] of two points' weights by Mikkelsen's exponent, written lane by lane so that the
-/// divisions pair up; falls back to `sharpen` where it would return NaN.
+/// Mikkelsen's weights w_i⁷ / Σ w_j⁷ of four points, one per lane (lane k of `bary[i]` is the i-th
+/// barycentric weight of point k), in f32 like the blend they feed. The barycentric weights sum to
+/// one, so the largest is at least ⅓ and its seventh power (≥ 4.6·10⁻⁴) keeps the sum far from
+/// underflow with no rescaling; a NaN weight stays in its own lane.
 #[inline(always)]
-fn sharpen_pair(a: [f64; 3], b: [f64; 3]) -> [[f64; 3]; 2] {
-    let top = [a[0].max(a[1]).max(a[2]), b[0].max(b[1]).max(b[2])];
-    if !(top[0] > 0.0 && top[1] > 0.0) {
-        return [sharpen(a, HEX_EXPONENT), sharpen(b, HEX_EXPONENT)];
-    }
-    // `power`'s x⁷ per lane, in its order.
-    let lanes = |k: usize| {
-        let x = [a[k].max(0.0) / top[0], b[k].max(0.0) / top[1]];
-        let x2 = [x[0] * x[0], x[1] * x[1]];
-        [(x[0] * x2[0]) * (x2[0] * x2[0]), (x[1] * x2[1]) * (x2[1] * x2[1])]
-    };
-    let p = [lanes(0), lanes(1), lanes(2)];
-    let sum = [p[0][0] + p[1][0] + p[2][0], p[0][1] + p[1][1] + p[2][1]];
-    [[p[0][0] / sum[0], p[1][0] / sum[0], p[2][0] / sum[0]], [p[0][1] / sum[1], p[1][1] / sum[1], p[2][1] / sum[1]]]
+fn hex_weights(bary: [Vec4; 3]) -> [Vec4; 3] {
+    let p = bary.map(|x| {
+        let x2 = x * x;
+        (x * x2) * (x2 * x2)
+    });
+    let inv = Vec4::ONE / (p[0] + p[1] + p[2]);
+    p.map(|p| p * inv)
 }
 
 /// x^e, by repeated squaring for the small whole exponents (1, Mikkelsen's 7) that are the common
