@@ -205,19 +205,33 @@ impl Unit {
                     Err(_) => continue,
                 },
             };
-            let ast = parse_file(&text, FileId(sources.len() as u32)).ok();
-            if let Some(file) = &ast {
-                let dir = p.parent().unwrap_or(Path::new("/")).to_path_buf();
-                for item in file.items.iter().rev() {
-                    if let Item::Import(imp) = item {
-                        queue.push(lang::normalize(&dir.join(&imp.path)));
-                    }
-                }
+            let id = FileId(sources.len() as u32);
+            let ast = parse_file(&text, id).ok();
+            let dir = p.parent().unwrap_or(Path::new("/")).to_path_buf();
+            let imports: Vec<String> = match &ast {
+                Some(file) => file
+                    .items
+                    .iter()
+                    .filter_map(|item| match item {
+                        Item::Import(imp) => Some(imp.path.clone()),
+                        _ => None,
+                    })
+                    .collect(),
+                None => outline(&text, id).0,
+            };
+            for imp in imports.iter().rev() {
+                queue.push(lang::normalize(&dir.join(imp)));
             }
             sources.push(Source { path: p, text, ast });
         }
         let mut symbols = Vec::new();
         for (i, s) in sources.iter().enumerate() {
+            if s.ast.is_none() {
+                for (kind, name, span) in outline(&s.text, FileId(i as u32)).1 {
+                    let spec = registry.iter().copied().find(|k| k.name == kind);
+                    symbols.push(Symbol { name, spec, file: i, span });
+                }
+            }
             for item in s.ast.iter().flat_map(|f| &f.items) {
                 match item {
                     Item::Decl(d) => {
@@ -259,6 +273,47 @@ impl Unit {
     }
 }
 
+/// The imports and top-level declarations of a file that does not parse (one being typed),
+/// read line by line: `import "…"`, `KIND NAME {` and `param NAME =` at bracket depth 0. A
+/// param's kind is empty.
+fn outline(text: &str, file: FileId) -> (Vec<String>, Vec<(String, String, Span)>) {
+    let (mut imports, mut decls) = (Vec::new(), Vec::new());
+    let mut depth = 0i64;
+    let mut at = 0;
+    for line in text.split_inclusive('\n') {
+        let start = at;
+        at += line.len();
+        if depth == 0 {
+            let words: Vec<&str> = line.split_whitespace().collect();
+            let ident = |w: &str| !w.is_empty() && w.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            match words.as_slice() {
+                ["import", path, ..] if path.len() >= 2 && path.starts_with('"') && path.ends_with('"') => {
+                    imports.push(path[1..path.len() - 1].to_string())
+                }
+                [kind, name, ..] if ident(kind) && ident(name.trim_end_matches(['{', '='])) => {
+                    let name = name.trim_end_matches(['{', '=']);
+                    let offset = start + line.find(kind).unwrap_or(0) + kind.len();
+                    let offset = offset + line[offset - start..].find(name).unwrap_or(0);
+                    let kind = if *kind == "param" { String::new() } else { kind.to_string() };
+                    decls.push((kind, name.to_string(), Span::new(file, offset, offset + name.len())));
+                }
+                _ => {}
+            }
+        }
+        let code = line.split('#').next().unwrap_or("");
+        let mut in_string = false;
+        for c in code.chars() {
+            match c {
+                '"' => in_string = !in_string,
+                '{' | '[' | '(' if !in_string => depth += 1,
+                '}' | ']' | ')' if !in_string => depth = (depth - 1).max(0),
+                _ => {}
+            }
+        }
+    }
+    (imports, decls)
+}
+
 fn block_refs(b: &ast::Block, props: Option<&[schema::PropSpec]>, name: &str, out: &mut Vec<Span>) {
     for p in b.properties() {
         let spec = props.and_then(|ps| ps.iter().find(|s| s.name == p.name.text));
@@ -296,6 +351,17 @@ fn refs_in(v: &ast::Value, ty: Option<&Ty>, name: &str, out: &mut Vec<Span>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_file_being_typed_still_has_an_outline() {
+        let text = "import \"_lib.tess\"\nparam k = 2\nkind a {\n  x = [\n  inner b {\n}\nother c{\n  in\n";
+        let (imports, decls) = outline(text, FileId(0));
+        assert_eq!(imports, vec!["_lib.tess"]);
+        let names: Vec<(&str, &str)> = decls.iter().map(|(k, n, _)| (k.as_str(), n.as_str())).collect();
+        assert_eq!(names, vec![("", "k"), ("kind", "a")], "`inner b` is inside an open bracket");
+        let (_, _, span) = &decls[1];
+        assert_eq!(&text[span.start..span.end], "a");
+    }
 
     #[test]
     fn file_uris_round_trip_through_paths() {
