@@ -134,7 +134,8 @@ impl Client {
     }
 
     fn change(&mut self, uri: &str, version: i64, text: &str) {
-        let params = json!({ "textDocument": { "uri": uri, "version": version }, "contentChanges": [{ "text": text }] });
+        let params =
+            json!({ "textDocument": { "uri": uri, "version": version }, "contentChanges": [{ "text": text }] });
         self.notify("textDocument/didChange", params);
     }
 
@@ -284,7 +285,8 @@ fn an_editor_session() {
 
     // Rename `shape`: its declaration and its reference.
     let (line, col) = pos(&fixed, "shape {");
-    let params = json!({ "textDocument": { "uri": scene }, "position": { "line": line, "character": col }, "newName": "oval" });
+    let params =
+        json!({ "textDocument": { "uri": scene }, "position": { "line": line, "character": col }, "newName": "oval" });
     let r = c.request("textDocument/rename", params);
     let edits = r["result"]["changes"][&scene].as_array().unwrap_or_else(|| panic!("{r}"));
     assert_eq!(edits.len(), 2, "{r}");
@@ -295,12 +297,16 @@ fn an_editor_session() {
     assert_eq!(starts, vec![(a.0 as u64, a.1 as u64), (b.0 as u64, b.1 as u64)]);
     // Renaming to a taken name or a non-name is refused.
     for bad in ["mask", "2x", "a b"] {
-        let params = json!({ "textDocument": { "uri": scene }, "position": { "line": line, "character": col }, "newName": bad });
+        let params =
+            json!({ "textDocument": { "uri": scene }, "position": { "line": line, "character": col }, "newName": bad });
         assert!(c.request("textDocument/rename", params).get("error").is_some(), "{bad}");
     }
 
     // Formatting: one edit, to exactly what `tessera fmt` writes.
-    let r = c.request("textDocument/formatting", json!({ "textDocument": { "uri": scene }, "options": { "tabSize": 2, "insertSpaces": true } }));
+    let r = c.request(
+        "textDocument/formatting",
+        json!({ "textDocument": { "uri": scene }, "options": { "tabSize": 2, "insertSpaces": true } }),
+    );
     let edits = r["result"].as_array().unwrap_or_else(|| panic!("{r}"));
     assert_eq!(edits.len(), 1);
     p.write("scene.tess", &fixed);
@@ -310,6 +316,21 @@ fn an_editor_session() {
     assert_eq!(edits[0]["newText"], formatted.as_str());
     let end = fixed.lines().count() as u64;
     assert_eq!(range(&edits[0]["range"]), ((0, 0), (end, 0)));
+
+    // The imported file opened and edited: the scene that reads it is checked again against
+    // the editor's text of it, not the file on disk.
+    c.open(&lib, LIB);
+    assert_eq!(c.diagnostics(&lib), Vec::<Value>::new());
+    assert_eq!(c.diagnostics(&scene), Vec::<Value>::new(), "the scene reads it: checked again");
+    c.change(&lib, 2, &LIB.replace("falloff", "fade"));
+    assert_eq!(c.diagnostics(&lib), Vec::<Value>::new());
+    let d = c.diagnostics(&scene);
+    assert_eq!(d.len(), 1, "{d:#?}");
+    let (line, col) = pos(&fixed, "falloff,");
+    assert_eq!(range(&d[0]["range"]).0, (line as u64, col as u64), "{d:#?}");
+    c.notify("textDocument/didClose", json!({ "textDocument": { "uri": lib } }));
+    assert_eq!(c.diagnostics(&lib), Vec::<Value>::new());
+    assert_eq!(c.diagnostics(&scene), Vec::<Value>::new(), "the file on disk again");
     c.finish();
 }
 
@@ -330,7 +351,10 @@ fn hostile_input_gets_errors_or_nothing_and_the_server_lives_on() {
             assert!(r.get("result").is_some() || r.get("error").is_some(), "{method}: {r}");
         }
     }
-    let r = c.request("textDocument/formatting", json!({ "textDocument": { "uri": scene }, "options": { "tabSize": 2, "insertSpaces": true } }));
+    let r = c.request(
+        "textDocument/formatting",
+        json!({ "textDocument": { "uri": scene }, "options": { "tabSize": 2, "insertSpaces": true } }),
+    );
     assert!(r["result"].is_null() || r["result"] == json!([]), "no edits for what does not parse: {r}");
     // A ranged change past the end, and half-typed declarations at every prefix.
     let params = json!({ "textDocument": { "uri": scene, "version": 9 }, "contentChanges": [
@@ -348,12 +372,16 @@ fn hostile_input_gets_errors_or_nothing_and_the_server_lives_on() {
     let unknown = uri(&p.path("nowhere.tess"));
     assert!(c.at("textDocument/hover", &unknown, 0, 0)["result"].is_null());
     assert_eq!(c.at("textDocument/completion", &unknown, 0, 0)["result"], json!([]));
-    let params = json!({ "textDocument": { "uri": unknown }, "position": { "line": 0, "character": 0 }, "newName": "x" });
+    let params =
+        json!({ "textDocument": { "uri": unknown }, "position": { "line": 0, "character": 0 }, "newName": "x" });
     assert!(c.request("textDocument/rename", params).get("error").is_some());
     c.change(&unknown, 2, "map x {}");
     let r = c.request("textDocument/hover", json!({ "nonsense": true }));
     assert_eq!(r["error"]["code"], -32602, "invalid params: {r}");
-    let r = c.request("textDocument/hover", json!({ "textDocument": { "uri": "::not a uri" }, "position": { "line": 0, "character": 0 } }));
+    let r = c.request(
+        "textDocument/hover",
+        json!({ "textDocument": { "uri": "::not a uri" }, "position": { "line": 0, "character": 0 } }),
+    );
     assert!(r.get("error").is_some(), "{r}");
     let r = c.request("workspace/nothing", json!({}));
     assert_eq!(r["error"]["code"], -32601, "method not found: {r}");

@@ -86,7 +86,13 @@ fn context(text: &str, offset: usize, innermost: &mut Option<usize>) -> Context 
                     let import = frames.is_empty() && stmt.trim() == "import";
                     let prop = statement_prop(&frames, stmt);
                     let frames = frames.into_iter().map(|f| f.0).collect();
-                    return Context::Str { frames, prop, import, content: text[open + 1..offset].to_string(), start: open + 1 };
+                    return Context::Str {
+                        frames,
+                        prop,
+                        import,
+                        content: text[open + 1..offset].to_string(),
+                        start: open + 1,
+                    };
                 }
                 if i < b.len() && b[i] == b'"' {
                     i += 1;
@@ -131,7 +137,8 @@ fn context(text: &str, offset: usize, innermost: &mut Option<usize>) -> Context 
             }
             b'}' | b']' | b')' => {
                 opens.pop();
-                if frames.pop().is_some() && frames.is_empty() {
+                frames.pop();
+                if frames.is_empty() {
                     top = i + 1;
                 }
             }
@@ -229,7 +236,10 @@ mod tests {
         assert_eq!(c, Context::Property { frames: vec![decl("map"), call], prefix: "cen".into() });
         let c = at("layer b {\n  sources = [a, b|");
         let group = Frame::Group { prop: Some("sources".into()) };
-        assert_eq!(c, Context::Value { frames: vec![decl("layer"), group], prop: Some("sources".into()), prefix: "b".into() });
+        assert_eq!(
+            c,
+            Context::Value { frames: vec![decl("layer"), group], prop: Some("sources".into()), prefix: "b".into() }
+        );
     }
 
     #[test]

@@ -89,19 +89,26 @@ pub fn hover(text: &str, offset: usize, unit: &Unit) -> Option<Hover> {
             let p = value_prop(&frames, prop.as_deref());
             if let (true, Some(Ty::Source { calls, .. } | Ty::Calls(calls))) = (called, p.map(|p| &p.ty)) {
                 markdown(schema::call_line(calls.iter().find(|c| c.name == word)?))
-            } else if let Some(s) = unit.symbol(word) {
-                let file = unit.sources[s.file].path.display();
-                match s.spec {
-                    Some(k) => markdown(format!("`{} {}` (declared in {file})\n\n{}", k.name, s.name, k.doc)),
-                    None => markdown(format!("`param {}` (declared in {file})", s.name)),
-                }
+            } else if let Some(m) = symbol_markdown(unit, word) {
+                m
             } else {
                 markdown(schema::property_markdown(p.filter(|p| matches!(p.ty, Ty::Enum(_)))?))
             }
         }
-        _ => return None,
+        // A declaration's own name.
+        _ => symbol_markdown(unit, word)?,
     };
     Some(Hover { contents, range })
+}
+
+/// What the declaration or param `name` is and where it is declared.
+fn symbol_markdown(unit: &Unit, name: &str) -> Option<HoverContents> {
+    let s = unit.symbol(name)?;
+    let file = unit.sources[s.file].path.display();
+    Some(match s.spec {
+        Some(k) => markdown(format!("`{} {}` (declared in {file})\n\n{}", k.name, s.name, k.doc)),
+        None => markdown(format!("`param {}` (declared in {file})", s.name)),
+    })
 }
 
 fn item(label: &str, kind: CompletionItemKind, detail: Option<String>) -> CompletionItem {

@@ -160,8 +160,8 @@ fn answer(state: &State, req: Request) -> Result<Json, Failure> {
                 text_of(state, uri).ok_or((ErrorCode::InvalidParams, "not an open document".to_string()))?;
             let offset = LineIndex::new(text).offset(at.position);
             let unit = Unit::load(path, &state.open);
-            let edit = features::rename(text, offset, &p.new_name, &unit, uri)
-                .map_err(|e| (ErrorCode::RequestFailed, e))?;
+            let edit =
+                features::rename(text, offset, &p.new_name, &unit, uri).map_err(|e| (ErrorCode::RequestFailed, e))?;
             json(edit)
         }
         request::Formatting::METHOD => {
