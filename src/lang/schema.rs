@@ -387,7 +387,7 @@ pub fn property_markdown(p: &PropSpec) -> String {
     }
     out.push_str(&format!("\n\n{}", p.doc));
     if let Ty::Source { calls, .. } | Ty::Calls(calls) = &p.ty {
-        out.push_str("\n");
+        out.push('\n');
         for c in calls.iter() {
             out.push_str(&format!("\n- {}\n", call_line(c)));
         }

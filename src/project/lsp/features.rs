@@ -267,16 +267,20 @@ fn files(text: &str, base: &Path, content: &str, start: usize, import: bool, out
 
 /// Definition: the declaration (or param) a name refers to, in the document or a file it
 /// imports.
-pub fn definition(text: &str, offset: usize, unit: &Unit) -> Option<Location> {
+pub fn definition(text: &str, offset: usize, unit: &Unit, doc: &Uri) -> Option<Location> {
     let (start, end) = word_at(text, offset)?;
     let s = unit.symbol(&text[start..end])?;
     let source = &unit.sources[s.file];
     let ix = LineIndex::new(&source.text);
-    Some(Location::new(uri_of(&source.path)?, ix.range(s.span.start, s.span.end)))
+    let uri = if s.file == 0 { doc.clone() } else { uri_of(&source.path)? };
+    Some(Location::new(uri, ix.range(s.span.start, s.span.end)))
 }
 
 /// Rename: the declaration and every reference to it in the document and the files it
 /// imports. `Err` says why not (not a declaration's name, not an identifier, taken).
+// `WorkspaceEdit` is keyed by `Uri`, whose `Hash` and `Eq` are those of its text; the cell
+// inside it is fluent-uri's parse cache, which neither reads.
+#[allow(clippy::mutable_key_type)]
 pub fn rename(text: &str, offset: usize, new_name: &str, unit: &Unit, doc: &Uri) -> Result<WorkspaceEdit, String> {
     let (start, end) = word_at(text, offset).ok_or("no name here")?;
     let old = &text[start..end];

@@ -150,7 +150,8 @@ fn answer(state: &State, req: Request) -> Result<Json, Failure> {
             let at = &p.text_document_position_params;
             let Some((text, path)) = text_of(state, &at.text_document.uri) else { return Ok(Json::Null) };
             let offset = LineIndex::new(text).offset(at.position);
-            json(features::definition(text, offset, &Unit::load(path, &state.open)))
+            let unit = Unit::load(path, &state.open);
+            json(features::definition(text, offset, &unit, &at.text_document.uri))
         }
         request::Rename::METHOD => {
             let p: lsp_types::RenameParams = params(req.params)?;
