@@ -295,7 +295,18 @@ fn an_editor_session() {
     starts.sort();
     let (a, b) = (pos(&fixed, "shape {"), pos(&fixed, "shape, op"));
     assert_eq!(starts, vec![(a.0 as u64, a.1 as u64), (b.0 as u64, b.1 as u64)]);
+    // Renaming a declaration of the imported file edits both files.
+    let (line, col) = pos(&fixed, "falloff,");
+    let params =
+        json!({ "textDocument": { "uri": scene }, "position": { "line": line, "character": col }, "newName": "fade" });
+    let r = c.request("textDocument/rename", params);
+    let changes = r["result"]["changes"].as_object().unwrap_or_else(|| panic!("{r}"));
+    assert_eq!(changes.len(), 2, "{r}");
+    let (l, k) = pos(LIB, "falloff");
+    assert_eq!(range(&changes[&lib][0]["range"]).0, (l as u64, k as u64));
+    assert_eq!(range(&changes[&scene][0]["range"]).0, (line as u64, col as u64));
     // Renaming to a taken name or a non-name is refused.
+    let (line, col) = pos(&fixed, "shape {");
     for bad in ["mask", "2x", "a b"] {
         let params =
             json!({ "textDocument": { "uri": scene }, "position": { "line": line, "character": col }, "newName": bad });
@@ -396,7 +407,9 @@ fn hostile_input_gets_errors_or_nothing_and_the_server_lives_on() {
     c.change(&scene, 11, SCENE);
     assert_eq!(c.diagnostics(&scene).len(), 1);
     c.finish();
-    assert!(!p.path(".untitled-untitled_Untitled_1.tess").exists(), "the server writes no file");
+    let mut left: Vec<_> = std::fs::read_dir(p.dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    left.sort();
+    assert_eq!(left, ["scene.tess", "tessera.toml"], "the server writes no file");
 }
 
 /// From a keystroke (`didChange`) to its diagnostics, on each bundled scene (each checked

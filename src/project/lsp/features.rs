@@ -321,3 +321,57 @@ pub fn format(text: &str) -> Vec<TextEdit> {
         _ => Vec::new(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_properties_are_those_of_the_block_only() {
+        let text = "k a {\n  x = 1\n  inner = { y = 2 }\n  call = f(z = 3, w = [1, 2])\n  typing\n}\nk b { v = 1 }";
+        let block = text.find('{').unwrap() + 1;
+        let at = text.find("typing").unwrap() + 3;
+        assert_eq!(set_properties(text, block, at), vec!["x", "inner", "call"]);
+        // The property being typed is not counted as set.
+        let text = "k a {\n  x = 1\n  y = \n}";
+        let at = text.find("y =").unwrap() + 1;
+        assert_eq!(set_properties(text, text.find('{').unwrap() + 1, at), vec!["x"]);
+    }
+
+    #[test]
+    fn frames_resolve_through_blocks_and_calls_to_their_properties() {
+        let registry = registry();
+        let (kind, block) = registry
+            .iter()
+            .find_map(|k| k.props.iter().find(|p| matches!(p.ty, Ty::Block(_))).map(|p| (k, p)))
+            .expect("some kind has a block property");
+        let Ty::Block(inner) = &block.ty else { unreachable!() };
+        let frames = vec![Frame::Decl { kind: kind.name.into() }, Frame::Block { prop: block.name.into() }];
+        let (props, owner) = resolve(&frames).unwrap();
+        assert!(std::ptr::eq(props, *inner) && owner.is_none());
+
+        let (kind, source, call) = registry
+            .iter()
+            .find_map(|k| {
+                k.props.iter().find_map(|p| match &p.ty {
+                    Ty::Source { calls, .. } => calls.first().map(|c| (k, p, c)),
+                    _ => None,
+                })
+            })
+            .expect("some kind has a constructor");
+        let frames = vec![
+            Frame::Decl { kind: kind.name.into() },
+            Frame::Call { prop: Some(source.name.into()), name: call.name.into() },
+        ];
+        assert!(std::ptr::eq(resolve(&frames).unwrap().0, call.args));
+        // A vector of the property, then the call inside it: the vector's property owns it.
+        let frames = vec![
+            Frame::Decl { kind: kind.name.into() },
+            Frame::Group { prop: Some(source.name.into()) },
+            Frame::Call { prop: None, name: call.name.into() },
+        ];
+        assert!(std::ptr::eq(resolve(&frames).unwrap().0, call.args));
+        assert!(resolve(&[Frame::Decl { kind: "no such kind".into() }]).is_none());
+        assert_eq!(value_prop(&frames[..2], None).map(|p| p.name), Some(source.name));
+    }
+}
