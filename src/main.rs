@@ -83,6 +83,9 @@ enum Command {
         #[arg(long)]
         check: bool,
     },
+    /// Run the language server on stdin and stdout (for editors: diagnostics, hover,
+    /// completion, definition, rename, formatting).
+    Lsp,
     /// Print a declaration kind's properties, types, defaults and docs.
     Explain {
         kind: Option<String>,
@@ -197,6 +200,7 @@ fn main() -> ExitCode {
             commands::watch(&g, &scene, Duration::from_millis(debounce), serve.as_deref())
         }
         Command::Fmt { paths, check } => commands::fmt(&g, &paths, check),
+        Command::Lsp => commands::lsp(),
         Command::Explain { kind, markdown } => commands::explain(kind.as_deref(), markdown),
         Command::Graph { scene, dot } => commands::graph(&g, &scene, dot),
         Command::Gc { all } => commands::gc(&g, all),

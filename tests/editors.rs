@@ -2,7 +2,8 @@
 //! and linguist-style highlighters): it is valid JSON, names every declaration kind
 //! `tessera explain` lists and no other, and its patterns, run as an editor runs them (with
 //! look-around), find the kinds, comments, numbers and units of every
-//! bundled scene.
+//! bundled scene. The VS Code extension in `editors/vscode/` carries a copy of the grammar
+//! and starts `tessera lsp`.
 
 mod common;
 
@@ -77,4 +78,34 @@ fn every_declaration_comment_and_number_of_the_bundled_scenes_is_highlighted() {
         }
     }
     assert!(seen > 100, "only {seen} declarations seen");
+}
+
+fn vscode(rel: &str) -> String {
+    std::fs::read_to_string(common::repo().join("editors/vscode").join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
+/// The VS Code extension: its manifest is JSON, contributes the language for `.tess` with the
+/// grammar (a copy of `editors/textmate`'s, kept identical) and the language configuration,
+/// and its entry point starts `tessera lsp`, a subcommand the binary has.
+#[test]
+fn the_vscode_extension_starts_the_language_server_with_the_grammar() {
+    let manifest: Value = serde_json::from_str(&vscode("package.json")).expect("package.json is JSON");
+    let language = &manifest["contributes"]["languages"][0];
+    assert_eq!(language["id"], "tessera");
+    assert_eq!(language["extensions"], serde_json::json!([".tess"]));
+    let config: Value = serde_json::from_str(&vscode(language["configuration"].as_str().unwrap()))
+        .expect("language-configuration.json is JSON");
+    assert_eq!(config["comments"]["lineComment"], "#");
+    let g = &manifest["contributes"]["grammars"][0];
+    assert_eq!(g["language"], "tessera");
+    assert_eq!(g["scopeName"], grammar()["scopeName"]);
+    let copy = vscode(g["path"].as_str().unwrap());
+    let original = std::fs::read_to_string(common::repo().join("editors/textmate/tessera.tmLanguage.json")).unwrap();
+    assert_eq!(copy, original, "editors/vscode/syntaxes: copy editors/textmate/tessera.tmLanguage.json again");
+    assert!(manifest["dependencies"]["vscode-languageclient"].is_string());
+    let main = vscode(manifest["main"].as_str().unwrap());
+    assert!(main.contains("args: [\"lsp\"]") && main.contains("vscode-languageclient"), "{main}");
+    let help = common::run_in(&common::repo(), &["lsp", "--help"]);
+    help.ok();
+    assert!(help.stdout().contains("language server"), "{}", help.stdout());
 }

@@ -335,13 +335,7 @@ pub fn explain(spec: &KindSpec) -> String {
 fn explain_props(props: &[PropSpec], depth: usize, out: &mut String) {
     let pad = "  ".repeat(depth);
     for p in props {
-        let default = match p.default {
-            Default::Required => "required".to_string(),
-            Default::Absent => "optional".to_string(),
-            Default::Text(t) => format!("default {t}"),
-            Default::SceneSize => "default: the scene size".to_string(),
-        };
-        out.push_str(&format!("{pad}{:<12} {}; {}\n", p.name, p.ty.describe(), default));
+        out.push_str(&format!("{pad}{:<12} {}; {}\n", p.name, p.ty.describe(), default_text(p.default)));
         out.push_str(&format!("{pad}{:<12} {}\n", "", p.doc));
         match &p.ty {
             Ty::Block(inner) => explain_props(inner, depth + 1, out),
@@ -355,6 +349,56 @@ fn explain_props(props: &[PropSpec], depth: usize, out: &mut String) {
             _ => {}
         }
     }
+}
+
+/// How `tessera explain` states a property's default: `required`, `optional`, `default 8`.
+pub fn default_text(default: Default) -> String {
+    match default {
+        Default::Required => "required".to_string(),
+        Default::Absent => "optional".to_string(),
+        Default::Text(t) => format!("default {t}"),
+        Default::SceneSize => "default: the scene size".to_string(),
+    }
+}
+
+/// The bounds a numeric type admits, when it has any: `from 0 to 1`, `at least 1`.
+pub fn range_text(ty: &Ty) -> Option<String> {
+    let (min, max) = match ty {
+        Ty::Number(_, r) | Ty::Pixels(r) | Ty::Numbers(_, r) => (r.min, r.max),
+        Ty::Int(a, b) => (*a as f64, *b as f64),
+        _ => return None,
+    };
+    let bounded = |x: f64| x.is_finite() && x.abs() < 1e15 && x != f64::MIN_POSITIVE;
+    match (bounded(min), bounded(max)) {
+        (true, true) => Some(format!("from {min} to {max}")),
+        (true, false) => Some(format!("at least {min}")),
+        (false, true) => Some(format!("at most {max}")),
+        (false, false) if min == f64::MIN_POSITIVE => Some("greater than 0".into()),
+        (false, false) => None,
+    }
+}
+
+/// One property as Markdown, for an editor's hover: its type, default, bounds and doc, and
+/// the constructors it takes.
+pub fn property_markdown(p: &PropSpec) -> String {
+    let mut out = format!("`{}`: {}; {}", p.name, p.ty.describe(), default_text(p.default));
+    if let Some(r) = range_text(&p.ty) {
+        out.push_str(&format!("; {r}"));
+    }
+    out.push_str(&format!("\n\n{}", p.doc));
+    if let Ty::Source { calls, .. } | Ty::Calls(calls) = &p.ty {
+        out.push('\n');
+        for c in calls.iter() {
+            out.push_str(&format!("\n- {}\n", call_line(c)));
+        }
+    }
+    out
+}
+
+/// `radial(center, radius)`: what a constructor does.
+pub fn call_line(c: &CallSpec) -> String {
+    let args: Vec<&str> = c.args.iter().map(|a| a.name).collect();
+    format!("`{}({})`: {}", c.name, args.join(", "), c.doc)
 }
 
 /// Renders a kind's schema as Markdown, for the language reference.

@@ -6,6 +6,7 @@ mod check;
 pub mod commands;
 pub mod format;
 mod goldens;
+pub mod lsp;
 pub mod manifest;
 pub mod preview;
 mod show;
@@ -167,12 +168,17 @@ impl Project {
 
     /// Parses, resolves and plans a scene.
     pub fn compile(&self, path: &Path) -> Result<(Scene, Plan), Failed> {
+        self.compile_through(path, &WorldLoader(&self.world))
+    }
+
+    /// Parses, resolves and plans a scene, reading its files through `loader`: the language
+    /// server's, which serves the text of open documents from memory.
+    pub fn compile_through(&self, path: &Path, loader: &dyn lang::Loader) -> Result<(Scene, Plan), Failed> {
         let registry = kinds::registry();
         let opts =
             lang::Options { sets: &self.sets, sets_may_miss: self.sets_may_miss, seed: self.seed, registry: &registry };
-        let loader = WorldLoader(&self.world);
-        let scene = lang::compile(path, &loader, &opts)?;
-        match kinds::plan_with(&scene, &kinds::PlanOptions { budget: self.budget, loader: Some(&loader) }) {
+        let scene = lang::compile(path, loader, &opts)?;
+        match kinds::plan_with(&scene, &kinds::PlanOptions { budget: self.budget, loader: Some(loader) }) {
             Ok(plan) => Ok((scene, plan)),
             Err(errors) => Err(Diagnostics::new(errors, scene.sources).into()),
         }

@@ -132,6 +132,14 @@ pub fn similar(g: &Global, dir: &Path, target: &Path, options: &SimilarOptions) 
     }
 }
 
+/// `tessera lsp`: the language server, on stdin and stdout, until the editor ends it.
+pub fn lsp() -> Outcome {
+    super::lsp::serve().map_err(|e| {
+        eprintln!("error: language server: {e}");
+        Reported
+    })
+}
+
 /// `tessera compare`: every texture measure of image `a` against image `b`.
 pub fn compare(a: &Path, b: &Path) -> Outcome {
     match texture::compare(a, b) {
