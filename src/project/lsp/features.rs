@@ -111,8 +111,19 @@ fn symbol_markdown(unit: &Unit, name: &str) -> Option<HoverContents> {
     })
 }
 
+/// A completion item. `detail` is plain text in the protocol (editors show it as it is), so
+/// the schemas' Markdown backticks are taken out of it.
 fn item(label: &str, kind: CompletionItemKind, detail: Option<String>) -> CompletionItem {
+    let detail = detail.map(|d| d.replace('`', ""));
     CompletionItem { label: label.to_string(), kind: Some(kind), detail, ..Default::default() }
+}
+
+/// A completion item with a one-line `detail` and Markdown documentation.
+fn documented(label: &str, kind: CompletionItemKind, detail: &str, doc: &str) -> CompletionItem {
+    let mut i = item(label, kind, Some(detail.to_string()));
+    i.documentation =
+        Some(Documentation::MarkupContent(MarkupContent { kind: MarkupKind::Markdown, value: doc.to_string() }));
+    i
 }
 
 /// The names of the declarations (and params) that may stand where `prop` takes a value.
@@ -138,7 +149,7 @@ pub fn complete(text: &str, offset: usize, path: Option<&Path>, unit: &Unit) -> 
     match ctx {
         Context::Item { .. } => {
             for k in registry() {
-                out.push(item(k.name, CompletionItemKind::CLASS, Some(k.doc.to_string())));
+                out.push(documented(k.name, CompletionItemKind::CLASS, "kind", k.doc));
             }
             for keyword in ["import", "param"] {
                 out.push(item(keyword, CompletionItemKind::KEYWORD, None));
@@ -148,12 +159,12 @@ pub fn complete(text: &str, offset: usize, path: Option<&Path>, unit: &Unit) -> 
             let Some((props, _)) = resolve(&frames) else { return out };
             let set = block.map(|b| set_properties(text, b, offset)).unwrap_or_default();
             for p in props.iter().filter(|p| !set.contains(&p.name)) {
-                let mut i = item(p.name, CompletionItemKind::PROPERTY, Some(p.ty.describe()));
-                i.documentation = Some(Documentation::MarkupContent(MarkupContent {
-                    kind: MarkupKind::Markdown,
-                    value: schema::property_markdown(p),
-                }));
-                out.push(i);
+                out.push(documented(
+                    p.name,
+                    CompletionItemKind::PROPERTY,
+                    &p.ty.describe(),
+                    &schema::property_markdown(p),
+                ));
             }
         }
         Context::Value { frames, prop, .. } => {
@@ -166,13 +177,13 @@ pub fn complete(text: &str, offset: usize, path: Option<&Path>, unit: &Unit) -> 
                 Ty::Ref(vs) | Ty::Refs(vs) => names_for(unit, vs, false, &mut out),
                 Ty::Source { calls, refs } => {
                     for c in calls.iter() {
-                        out.push(item(c.name, CompletionItemKind::FUNCTION, Some(c.doc.to_string())));
+                        out.push(documented(c.name, CompletionItemKind::FUNCTION, "constructor", c.doc));
                     }
                     names_for(unit, refs, false, &mut out);
                 }
                 Ty::Calls(calls) => {
                     for c in calls.iter() {
-                        out.push(item(c.name, CompletionItemKind::FUNCTION, Some(c.doc.to_string())));
+                        out.push(documented(c.name, CompletionItemKind::FUNCTION, "constructor", c.doc));
                     }
                 }
                 Ty::Number(..) | Ty::Pixels(_) | Ty::Int(..) | Ty::Numbers(..) | Ty::Vec2(_) | Ty::Size => {

@@ -125,7 +125,10 @@ fn convert(d: &Diagnostics, path: &Path, text: &str) -> Vec<lsp_types::Diagnosti
             let mut related = Vec::new();
             let range = match item.labels.first() {
                 Some((span, label)) if here(span.file) => {
-                    if !label.is_empty() && *label != item.message {
+                    // A label that only repeats the message (`unknown property` under
+                    // "unknown property `gird` for `layer`") adds nothing in an editor, where
+                    // the range already points at the text.
+                    if !label.is_empty() && !item.message.to_lowercase().contains(&label.to_lowercase()) {
                         message.push_str(&format!("\n{label}"));
                     }
                     ix.range(span.start, span.end)
