@@ -685,6 +685,12 @@ pub fn render(
                     let found = row.hex_corners([at(0), at(1), at(2), at(3)]);
                     quad.copy_from_slice(&found[..quad.len()]);
                 }
+            } else if !setup.hex && setup.exponent == 1.0 {
+                // HN's weights are the barycentric ones as they are: `corner` without its tests.
+                for (x, corner) in corners.iter_mut().enumerate() {
+                    let (bx, lower, bary) = row.place(u(x));
+                    *corner = Corner::new(bx, lower, bary);
+                }
             } else {
                 for (x, corner) in corners.iter_mut().enumerate() {
                     *corner = row.corner(u(x));
