@@ -361,43 +361,6 @@ impl Pattern for Superellipse {
     }
 }
 
-#[cfg(test)]
-mod superellipse_tests {
-    use super::*;
-
-    /// The shortcut changes no pixel: wherever it decides, the full distance gives the same
-    /// coverage bit for bit, over shapes from thin to round to square, pixels from a hundredth
-    /// of the shape to bigger than it, and points inside, on and far outside the curve.
-    #[test]
-    fn the_settled_shortcut_agrees_with_the_distance_everywhere() {
-        let mut decided = 0;
-        let mut total = 0;
-        for (a, b) in [(0.3, 0.2), (0.5, 0.5), (0.01, 0.4), (0.25, 0.001)] {
-            for n in [1.0, 1.5, 2.0, 4.0, 13.7, 64.0] {
-                let shape = Superellipse::new(a, b, n, [1.0; 3], [0.0; 3]);
-                for fw in [1e-6, 1.0 / 1024.0, 1.0 / 64.0, 0.3, 5.0] {
-                    for i in 0..=200 {
-                        for j in 0..=200 {
-                            let (x, y) = (-0.6 + 1.2 * i as f64 / 200.0, -0.6 + 1.2 * j as f64 / 200.0);
-                            total += 1;
-                            if let Some(c) = shape.settled(x, y, fw) {
-                                decided += 1;
-                                let exact = coverage(shape.distance(x, y), fw);
-                                assert_eq!(c.to_bits(), exact.to_bits(), "a {a} b {b} n {n} fw {fw} at ({x}, {y})");
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        // And it does decide most pixels.
-        assert!(decided * 10 > total * 6, "{decided} of {total}");
-        // Below n = 1 the bounds do not hold, and nothing is decided.
-        let star = Superellipse::new(0.3, 0.2, 0.7, [1.0; 3], [0.0; 3]);
-        assert_eq!(star.settled(0.45, 0.45, 1.0 / 1024.0), None);
-    }
-}
-
 pub static STAR: ShaderDef = ShaderDef {
     name: "star",
     doc: "An n-pointed star centred in the unit square (Peachey's star, the thesis's Fig. 4-21): `points` is a whole number, which the thesis's float-only search could not recover.",
@@ -465,5 +428,42 @@ impl Pattern for Star {
         let inside = cross([0.0, 0.0]);
         let d = if inside == 0.0 { f64::INFINITY } else { -cross(q) * inside.signum() };
         mix(self.background, self.colour, coverage(d, fw))
+    }
+}
+
+#[cfg(test)]
+mod superellipse_tests {
+    use super::*;
+
+    /// The shortcut changes no pixel: wherever it decides, the full distance gives the same
+    /// coverage bit for bit, over shapes from thin to round to square, pixels from a hundredth
+    /// of the shape to bigger than it, and points inside, on and far outside the curve.
+    #[test]
+    fn the_settled_shortcut_agrees_with_the_distance_everywhere() {
+        let mut decided = 0;
+        let mut total = 0;
+        for (a, b) in [(0.3, 0.2), (0.5, 0.5), (0.01, 0.4), (0.25, 0.001)] {
+            for n in [1.0, 1.5, 2.0, 4.0, 13.7, 64.0] {
+                let shape = Superellipse::new(a, b, n, [1.0; 3], [0.0; 3]);
+                for fw in [1e-6, 1.0 / 1024.0, 1.0 / 64.0, 0.3, 5.0] {
+                    for i in 0..=200 {
+                        for j in 0..=200 {
+                            let (x, y) = (-0.6 + 1.2 * i as f64 / 200.0, -0.6 + 1.2 * j as f64 / 200.0);
+                            total += 1;
+                            if let Some(c) = shape.settled(x, y, fw) {
+                                decided += 1;
+                                let exact = coverage(shape.distance(x, y), fw);
+                                assert_eq!(c.to_bits(), exact.to_bits(), "a {a} b {b} n {n} fw {fw} at ({x}, {y})");
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // And it does decide most pixels.
+        assert!(decided * 10 > total * 6, "{decided} of {total}");
+        // Below n = 1 the bounds do not hold, and nothing is decided.
+        let star = Superellipse::new(0.3, 0.2, 0.7, [1.0; 3], [0.0; 3]);
+        assert_eq!(star.settled(0.45, 0.45, 1.0 / 1024.0), None);
     }
 }
