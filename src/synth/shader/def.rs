@@ -10,6 +10,15 @@ use super::params::{self, ParamDef, ParamError};
 pub trait Pattern: Send + Sync {
     /// The colour of the pixel centred at `(u, v)`, `fw` wide in texture units.
     fn shade(&self, u: f64, v: f64, fw: f64) -> [f32; 3];
+
+    /// The colours of the pixels centred at `u0 + (x + ½)·du` for `x` in `0..out.len()`, on
+    /// the row at `v`: [`Pattern::shade`] at each, bit for bit. Shaders whose points cost less
+    /// side by side (the noise ones) override it.
+    fn shade_row(&self, u0: f64, du: f64, v: f64, fw: f64, out: &mut [[f32; 3]]) {
+        for (x, c) in out.iter_mut().enumerate() {
+            *c = self.shade(u0 + (x as f64 + 0.5) * du, v, fw);
+        }
+    }
 }
 
 /// One shader of the library.

@@ -86,15 +86,18 @@ pub fn render(
     let (r, rest) = image.data.split_at_mut(w * h);
     let (g, b) = rest.split_at_mut(w * h);
     let rows = r.par_chunks_mut(w).zip(g.par_chunks_mut(w)).zip(b.par_chunks_mut(w));
-    rows.enumerate().for_each(|(y, ((r, g), b))| {
-        let v = v0 + (y as f64 + 0.5) * dv;
-        for x in 0..w {
-            let c = pattern.shade(u0 + (x as f64 + 0.5) * du, v, fw);
-            // A NaN (which `clamp` would keep) becomes 0.
-            let [cr, cg, cb] = c.map(|v| if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) });
-            (r[x], g[x], b[x]) = (cr, cg, cb);
-        }
-    });
+    rows.enumerate().for_each_init(
+        || vec![[0f32; 3]; w],
+        |colours, (y, ((r, g), b))| {
+            let v = v0 + (y as f64 + 0.5) * dv;
+            pattern.shade_row(u0, du, v, fw, colours);
+            for (x, c) in colours.iter().enumerate() {
+                // A NaN (which `clamp` would keep) becomes 0.
+                let [cr, cg, cb] = c.map(|v| if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) });
+                (r[x], g[x], b[x]) = (cr, cg, cb);
+            }
+        },
+    );
     Ok(image)
 }
 

@@ -38,13 +38,7 @@ pub fn fract(x: f64) -> f64 {
 /// A 32-bit integer hash of a lattice cell and a seed (a multiply–xorshift finaliser).
 #[inline]
 pub fn hash(x: i64, y: i64, seed: u32) -> u32 {
-    let mut h = seed ^ (x as u32).wrapping_mul(0x27d4_eb2d) ^ (y as u32).wrapping_mul(0x1656_67b1);
-    h ^= h >> 15;
-    h = h.wrapping_mul(0x2c1b_3c6d);
-    h ^= h >> 12;
-    h = h.wrapping_mul(0x297a_2d39);
-    h ^= h >> 15;
-    h
+    hash32(x as u32, y as u32, seed)
 }
 
 /// A uniform number in `[0, 1)` for a lattice cell.
@@ -95,6 +89,70 @@ pub fn snoise(x: f64, y: f64, seed: u32) -> f64 {
     std::f64::consts::SQRT_2 * (a + sy * (b - a))
 }
 
+/// 1.5·2⁵²: added to an f64 below 2⁵¹ in magnitude, it rounds it to a whole number held in the
+/// low mantissa bits, so ⌊x⌋ and its low 32 bits need no float-to-integer conversion (which
+/// has no vector form before AVX-512).
+const ROUND: f64 = 6_755_399_441_055_744.0;
+
+/// Where [`floor_lane`] is exact: far past any render's reach (the region's corners lie within
+/// ±10⁹, octaves multiply that by at most 2¹³).
+const LANE_LIMIT: f64 = (1u64 << 50) as f64;
+
+/// ⌊x⌋ and its low 32 bits (two's complement) for |x| < 2⁵⁰: what [`floor`] and `as u32` give.
+#[inline(always)]
+fn floor_lane(x: f64) -> (f64, u32) {
+    let near = (x + ROUND) - ROUND;
+    let base = if near > x { near - 1.0 } else { near };
+    (base, (base + ROUND).to_bits() as u32)
+}
+
+/// [`snoise`] at `N` points: lane by lane the same operations, so the same bits, in loops the
+/// compiler runs in vector registers. Points past 2⁵⁰ go to `snoise` one by one.
+#[inline(always)]
+pub fn snoise_lanes<const N: usize>(x: [f64; N], y: [f64; N], seed: u32) -> [f64; N] {
+    if !x.iter().chain(&y).all(|v| v.abs() < LANE_LIMIT) {
+        return std::array::from_fn(|l| snoise(x[l], y[l], seed));
+    }
+    let mut out = [0.0; N];
+    for l in 0..N {
+        let ((fx, ix), (fy, iy)) = (floor_lane(x[l]), floor_lane(y[l]));
+        let (dx, dy) = (x[l] - fx, y[l] - fy);
+        let dot = |cx: u32, cy: u32, ox: f64, oy: f64| {
+            let g = GRADIENTS[(hash32(cx, cy, seed) >> 28) as usize];
+            g[0] * ox + g[1] * oy
+        };
+        let n00 = dot(ix, iy, dx, dy);
+        let n10 = dot(ix.wrapping_add(1), iy, dx - 1.0, dy);
+        let n01 = dot(ix, iy.wrapping_add(1), dx, dy - 1.0);
+        let n11 = dot(ix.wrapping_add(1), iy.wrapping_add(1), dx - 1.0, dy - 1.0);
+        let (sx, sy) = (fade(dx), fade(dy));
+        let a = n00 + sx * (n10 - n00);
+        let b = n01 + sx * (n11 - n01);
+        out[l] = std::f64::consts::SQRT_2 * (a + sy * (b - a));
+    }
+    out
+}
+
+/// [`vl_noise`] at `N` points, lane by lane the same operations.
+#[inline(always)]
+pub fn vl_noise_lanes<const N: usize>(x: [f64; N], y: [f64; N], seed: u32) -> [f64; N] {
+    let ox = snoise_lanes(x.map(|x| x + 0.5), y.map(|y| y + 0.5), seed ^ 0x9e37_79b9);
+    let oy = snoise_lanes(x.map(|x| x - 3.7), y.map(|y| y + 1.3), seed ^ 0x7f4a_7c15);
+    snoise_lanes(std::array::from_fn(|l| x[l] + ox[l]), std::array::from_fn(|l| y[l] + oy[l]), seed)
+}
+
+/// [`hash`] of a cell given by the low 32 bits of its coordinates (all of them `hash` reads).
+#[inline(always)]
+fn hash32(x: u32, y: u32, seed: u32) -> u32 {
+    let mut h = seed ^ x.wrapping_mul(0x27d4_eb2d) ^ y.wrapping_mul(0x1656_67b1);
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x2c1b_3c6d);
+    h ^= h >> 12;
+    h = h.wrapping_mul(0x297a_2d39);
+    h ^= h >> 15;
+    h
+}
+
 #[inline]
 fn fade(t: f64) -> f64 {
     t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
@@ -139,6 +197,57 @@ pub fn vl_noise(x: f64, y: f64, seed: u32) -> f64 {
     let ox = snoise(x + 0.5, y + 0.5, seed ^ 0x9e37_79b9);
     let oy = snoise(x - 3.7, y + 1.3, seed ^ 0x7f4a_7c15);
     snoise(x + ox, y + oy, seed)
+}
+
+/// [`fbm`] at `N` points, lane by lane the same operations.
+#[inline(always)]
+pub fn fbm_lanes<const N: usize>(x: [f64; N], y: [f64; N], octaves: f64, gain: f64, fw: f64, seed: u32) -> [f64; N] {
+    sum_octaves_lanes(x, y, octaves, gain, fw, seed, |n| n)
+}
+
+/// [`turbulence`] at `N` points, lane by lane the same operations.
+#[inline(always)]
+pub fn turbulence_lanes<const N: usize>(
+    x: [f64; N],
+    y: [f64; N],
+    octaves: f64,
+    gain: f64,
+    fw: f64,
+    seed: u32,
+) -> [f64; N] {
+    sum_octaves_lanes(x, y, octaves, gain, fw, seed, f64::abs)
+}
+
+/// [`sum_octaves`] of `shape(snoise)` at `N` points: the octaves are the same for every point.
+#[inline(always)]
+fn sum_octaves_lanes<const N: usize>(
+    x: [f64; N],
+    y: [f64; N],
+    octaves: f64,
+    gain: f64,
+    fw: f64,
+    seed: u32,
+    shape: impl Fn(f64) -> f64,
+) -> [f64; N] {
+    let (whole, frac) = octave_count(octaves);
+    let mut sum = [0.0; N];
+    let mut amp = 1.0;
+    let mut freq = 1.0;
+    for i in 0..=whole {
+        let w = if i < whole { 1.0 } else { frac };
+        let fade = octave_weight(freq, fw);
+        if w == 0.0 || fade == 0.0 {
+            break;
+        }
+        let s = seed.wrapping_add((i as u32).wrapping_mul(0x68e3_1da4));
+        let n = snoise_lanes(x.map(|x| x * freq), y.map(|y| y * freq), s);
+        for (sum, n) in sum.iter_mut().zip(n) {
+            *sum += w * fade * amp * shape(n);
+        }
+        amp *= gain;
+        freq *= 2.0;
+    }
+    sum
 }
 
 fn sum_octaves(x: f64, y: f64, octaves: f64, gain: f64, fw: f64, seed: u32, f: impl Fn(f64, f64, u32) -> f64) -> f64 {

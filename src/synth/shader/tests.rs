@@ -290,3 +290,24 @@ fn the_star_takes_whole_points_and_a_fraction_breaks_it() {
     let broken = render_at(4.5);
     assert!(mean_abs_diff(&broken, &rot90(&broken)) > 0.01);
 }
+
+/// Every shader's row (side by side, with AVX2 where the CPU has it) is its points one by one,
+/// bit for bit, at widths that leave a remainder of the lanes and at pixel sizes that cut
+/// octaves short.
+#[test]
+fn every_row_equals_its_points_bit_for_bit() {
+    for def in LIBRARY {
+        let pattern = def.pattern(&def.defaults(), 11).expect("defaults are valid");
+        for (width, fw) in [(29, 1.0 / 29.0), (256, 1.0 / 256.0), (3, 0.4)] {
+            let du = 1.0 / width as f64;
+            for v in [0.02, 0.5, 0.93] {
+                let mut row = vec![[0f32; 3]; width];
+                pattern.shade_row(-0.25, du, v, fw, &mut row);
+                for (x, c) in row.iter().enumerate() {
+                    let one = pattern.shade(-0.25 + (x as f64 + 0.5) * du, v, fw);
+                    assert_eq!(c.map(f32::to_bits), one.map(f32::to_bits), "{} pixel {x} of {width}", def.name);
+                }
+            }
+        }
+    }
+}
