@@ -76,6 +76,10 @@ impl Cyclone {
             py[l] = (sin * x + cos * y) * self.frequency;
             weight[l] = smoothstep(0.05 * r, 0.1 * r, radius) * (1.0 - smoothstep(0.9 * r, r, radius));
         }
+        // Outside the vortex there is no cloud to compute (catalogues sample small vortices).
+        if weight.iter().all(|&w| w == 0.0) {
+            return [self.background; N];
+        }
         let (whole, frac) = octave_count(self.octaves);
         let mut sum = [0.0; N];
         let mut o = 1.0;
