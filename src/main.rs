@@ -41,6 +41,17 @@ struct Cli {
     /// Build every scene with this seed instead of its own (to explore variations).
     #[arg(long, global = true)]
     seed: Option<u64>,
+    /// A shared cache under the local one, over Bazel's HTTP remote-cache protocol
+    /// (`http://host:port/prefix`), instead of `[cache] remote` in tessera.toml. Credentials
+    /// come from TESSERA_REMOTE_CACHE_TOKEN or TESSERA_REMOTE_CACHE_BASIC.
+    #[arg(long, value_name = "URL", global = true)]
+    remote_cache: Option<String>,
+    /// Read from the remote cache but never upload to it.
+    #[arg(long, global = true)]
+    remote_read_only: bool,
+    /// Use no remote cache, whatever tessera.toml says.
+    #[arg(long, global = true, conflicts_with = "remote_cache")]
+    no_remote_cache: bool,
 }
 
 #[derive(Subcommand)]
@@ -138,6 +149,11 @@ enum Command {
     /// Print texture distances of image A against image B: power spectrum, Laplacian
     /// pyramid, colour histogram, and bidirectional patch similarity.
     Compare { a: PathBuf, b: PathBuf },
+    /// Inspect the cache.
+    Cache {
+        #[command(subcommand)]
+        action: CacheAction,
+    },
     /// Remove cache entries that no current scene uses.
     Gc {
         /// Remove every entry.
@@ -151,6 +167,13 @@ enum Command {
     },
     /// Print the man page (roff): `tessera man > tessera.1`.
     Man,
+}
+
+#[derive(Subcommand)]
+enum CacheAction {
+    /// Print the hit rates of past builds: local hits, remote hits, computed stages, bytes
+    /// moved.
+    Stats,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -189,6 +212,9 @@ fn main() -> ExitCode {
         quiet: cli.quiet,
         max_memory: cli.max_memory,
         seed: cli.seed,
+        remote_cache: cli.remote_cache,
+        remote_read_only: cli.remote_read_only,
+        no_remote_cache: cli.no_remote_cache,
     };
     let result = match cli.command {
         Command::Build { paths } => commands::scenes(&g, &paths, Mode::Build),
@@ -204,6 +230,7 @@ fn main() -> ExitCode {
         Command::Explain { kind, markdown } => commands::explain(kind.as_deref(), markdown),
         Command::Graph { scene, dot } => commands::graph(&g, &scene, dot),
         Command::Gc { all } => commands::gc(&g, all),
+        Command::Cache { action: CacheAction::Stats } => commands::cache_stats(&g),
         Command::Similar { dir, target, k, randomness, seed, fourier, no_colour, orientation, fixed, bins, size } => {
             let fourier = match fourier {
                 FourierArg::Reim => Some(Fourier::ReIm),

@@ -22,12 +22,15 @@ use std::sync::OnceLock;
 
 use super::files;
 use super::key::Key;
+use super::stats::Stats;
 
 const MAGIC: &[u8; 4] = b"TSC2";
 /// Entries of earlier versions: recognised (so `gc` may remove them), never trusted.
 const OLD_MAGIC: &[u8; 4] = b"TSC1";
 const HEADER: usize = 4 + 32 + 32;
 pub const MARKER: &str = "CACHEDIR.TAG";
+/// The hit counts of past builds (`Stats`), beside the marker.
+pub const STATS: &str = "stats.json";
 const MARKER_TEXT: &str = "Signature: 8a477f597d28d172789f06886806bc55\n\
 # This file is a cache directory tag created by tessera: everything here can be rebuilt.\n\
 # For information about cache directory tags, see https://bford.info/cachedir/\n";
@@ -101,12 +104,6 @@ impl Cache {
         files::write_atomic(&self.path(key), &data)
     }
 
-    /// Keeps the warnings a stage gave beside its entry (under `key.warnings()`).
-    pub fn put_warnings(&self, key: &Key, warnings: &[String]) -> io::Result<()> {
-        let json = serde_json::to_vec(warnings).map_err(io::Error::other)?;
-        self.put(&key.warnings(), &json)
-    }
-
     /// The warnings kept for the stage with `key` (none when it gave none, or its entry is
     /// gone or damaged).
     pub fn warnings(&self, key: &Key) -> Vec<String> {
@@ -114,6 +111,38 @@ impl Cache {
             Lookup::Hit(bytes) => serde_json::from_slice(&bytes).unwrap_or_default(),
             Lookup::Miss | Lookup::Corrupt => Vec::new(),
         }
+    }
+
+    /// The counts of past builds (zero when none were kept, or the file is damaged).
+    pub fn stats(&self) -> Stats {
+        std::fs::read(self.dir.join(STATS)).ok().and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or_default()
+    }
+
+    /// Adds a build's counts to the kept ones. Two builds finishing at once may lose one
+    /// build's counts (the file is replaced whole, never torn): they are statistics.
+    pub fn add_stats(&self, build: &Stats) -> io::Result<()> {
+        self.claim().map_err(|e| io::Error::new(io::ErrorKind::PermissionDenied, e))?;
+        let mut all = self.stats();
+        all.add(build);
+        let json = serde_json::to_vec_pretty(&all).map_err(io::Error::other)?;
+        files::write_atomic(&self.dir.join(STATS), &json)
+    }
+
+    /// Entries and their bytes on disk (warnings entries included).
+    pub fn size(&self) -> (u64, u64) {
+        let (mut n, mut bytes) = (0, 0);
+        for shard in std::fs::read_dir(&self.dir).into_iter().flatten().flatten() {
+            if !is_shard(&shard) {
+                continue;
+            }
+            for e in std::fs::read_dir(shard.path()).into_iter().flatten().flatten() {
+                if e.file_type().is_ok_and(|t| t.is_file()) && is_entry_name(&e.file_name().to_string_lossy()) {
+                    n += 1;
+                    bytes += e.metadata().map(|m| m.len()).unwrap_or(0);
+                }
+            }
+        }
+        (n, bytes)
     }
 
     /// Makes sure the root is a tessera cache before the first write: creates it with its
@@ -150,7 +179,7 @@ impl Cache {
         for e in entries {
             let Ok(e) = e else { return Some(self.dir.clone()) };
             let name = e.file_name().to_string_lossy().into_owned();
-            if name == MARKER || files::is_temporary(&name) {
+            if name == MARKER || name == STATS || files::is_temporary(&name) {
                 continue;
             }
             if !is_shard(&e) {
@@ -189,7 +218,7 @@ impl Cache {
         let shards = std::fs::read_dir(&self.dir).map_err(|e| format!("cannot list `{}`: {e}", self.dir.display()))?;
         for shard in shards.flatten() {
             let prefix = shard.file_name().to_string_lossy().into_owned();
-            if prefix == MARKER || files::is_temporary(&prefix) {
+            if prefix == MARKER || prefix == STATS || files::is_temporary(&prefix) {
                 continue;
             }
             if !is_shard(&shard) {

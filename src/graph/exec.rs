@@ -6,7 +6,7 @@
 //! on which thread ran it or in what order, so outputs do not depend on the thread count.
 
 use std::collections::{BTreeSet, HashMap, HashSet};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -16,6 +16,7 @@ use super::budget::Budget;
 use super::cache::{Cache, Lookup};
 use super::key::{Key, KeyBuilder};
 use super::progress::Progress;
+use super::remote::{Entry, Remote};
 use super::stage::{Artifact, Graph, NodeId, RunCx, StageError};
 use super::world::World;
 
@@ -26,6 +27,8 @@ pub enum Status {
     Fresh,
     /// Loaded from the on-disk cache.
     Hit,
+    /// Loaded from the remote cache (and kept in the local one).
+    Remote,
     /// Taken from the in-memory cache (watch mode).
     Memory,
     /// Ran.
@@ -43,10 +46,20 @@ pub struct StageRecord {
     pub key: Key,
     pub status: Status,
     pub millis: f64,
+    /// Bytes fetched from the remote cache for this stage.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub bytes_down: u64,
+    /// Bytes sent to the remote cache for this stage (once the upload finished).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub bytes_up: u64,
     /// What the stage warned about: when it ran, or, when it was loaded or not needed, when
-    /// it ran for the cache entry (kept beside the entry, `Cache::put_warnings`).
+    /// it ran for the cache entry (kept beside the entry, under `Key::warnings`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 fn key_hex<S: serde::Serializer>(k: &Key, s: S) -> Result<S::Ok, S::Error> {
@@ -95,6 +108,8 @@ pub struct Executor<'a> {
     pub world: &'a World,
     pub cache: &'a Cache,
     pub memory: Option<&'a MemoryCache>,
+    /// The shared cache under the local one, if any.
+    pub remote: Option<&'a Arc<Remote>>,
     pub progress: bool,
     /// Handed to stages through [`RunCx::budget`]; no part of any key.
     pub budget: Budget,
@@ -143,29 +158,66 @@ impl Executor<'_> {
         let mut warnings: HashMap<NodeId, Vec<String>> = HashMap::new();
         let mut values: HashMap<NodeId, Artifact> = HashMap::new();
         let mut corrupt: HashSet<NodeId> = HashSet::new();
+        let mut bytes_down: HashMap<NodeId, u64> = HashMap::new();
+        // The remote's entries for stages the local cache lacks, and the stages asked for.
+        let mut remote: HashMap<NodeId, Entry> = HashMap::new();
+        let mut asked: HashSet<NodeId> = HashSet::new();
+        let mut consumers: HashMap<NodeId, Vec<NodeId>> = HashMap::new();
+        if self.remote.is_some() {
+            for &n in &closure {
+                for &i in &graph.nodes[n].inputs {
+                    consumers.entry(i).or_default().push(n);
+                }
+            }
+        }
 
         // Decide what to load and what to run; a load that fails verification turns into
-        // a run, which may need more inputs, so iterate until every load succeeds.
+        // a run, which may need more inputs, so iterate until every load succeeds. Stages
+        // to run are first looked up in the remote; a hit there may spare its inputs.
         let to_run = loop {
-            let (load, run) = self.plan(graph, targets, &keys, &values, &corrupt);
-            type Loaded = (NodeId, Option<(Artifact, Status)>, f64);
+            let (load, run) = self.plan(graph, targets, &keys, &values, &corrupt, &remote);
+            if let Some(r) = self.remote.filter(|r| r.active()) {
+                // Top down: a stage is asked for once every stage to run that reads it was
+                // asked and missed, so a hit spares the lookups of everything below it.
+                let ready = |n: &NodeId| {
+                    !asked.contains(n)
+                        && consumers
+                            .get(n)
+                            .is_none_or(|cs| cs.iter().filter(|c| run.contains(c)).all(|c| asked.contains(c)))
+                };
+                let ask: Vec<NodeId> = run.iter().copied().filter(ready).collect();
+                if !ask.is_empty() {
+                    asked.extend(&ask);
+                    let found: Vec<(NodeId, Entry)> =
+                        ask.par_iter().filter_map(|&n| r.lookup(&keys[&n]).map(|e| (n, e))).collect();
+                    remote.extend(found);
+                    continue;
+                }
+            }
+            type Loaded = (NodeId, Option<(Artifact, Status, u64)>, f64);
             let loaded: Vec<Loaded> = load
                 .par_iter()
                 .map(|&n| {
                     let t = Instant::now();
-                    let r = self.load(graph, n, &keys[&n]);
+                    let r = self.load(graph, n, &keys[&n], remote.get(&n));
                     (n, r, ms(t))
                 })
                 .collect();
             let mut again = false;
             for (n, r, t) in loaded {
                 match r {
-                    Some((a, s)) => {
+                    Some((a, s, bytes)) => {
                         values.insert(n, a);
                         status.insert(n, (s, t));
+                        if bytes > 0 {
+                            bytes_down.insert(n, bytes);
+                        }
                     }
                     None => {
-                        corrupt.insert(n);
+                        // Not usable locally nor remotely: run it.
+                        if remote.remove(&n).is_none() {
+                            corrupt.insert(n);
+                        }
                         again = true;
                     }
                 }
@@ -235,6 +287,8 @@ impl Executor<'_> {
                         key: keys[&n],
                         status: s,
                         millis: t,
+                        bytes_down: bytes_down.get(&n).copied().unwrap_or(0),
+                        bytes_up: 0,
                         warnings: warnings.remove(&n).unwrap_or_else(|| self.cached_warnings(s, &keys[&n])),
                     })
                 })
@@ -260,6 +314,7 @@ impl Executor<'_> {
         keys: &HashMap<NodeId, Key>,
         have: &HashMap<NodeId, Artifact>,
         corrupt: &HashSet<NodeId>,
+        remote: &HashMap<NodeId, Entry>,
     ) -> (Vec<NodeId>, BTreeSet<NodeId>) {
         let mut need: BTreeSet<NodeId> = targets.iter().copied().collect();
         let mut load = Vec::new();
@@ -270,8 +325,8 @@ impl Executor<'_> {
                 continue;
             }
             let k = &keys[&n];
-            let cached =
-                !corrupt.contains(&n) && (self.memory.is_some_and(|m| m.get(k).is_some()) || self.cache.contains(k));
+            let cached = remote.contains_key(&n)
+                || !corrupt.contains(&n) && (self.memory.is_some_and(|m| m.get(k).is_some()) || self.cache.contains(k));
             if cached {
                 load.push(n);
             } else {
@@ -282,14 +337,36 @@ impl Executor<'_> {
         (load, run)
     }
 
-    fn load(&self, graph: &Graph, n: NodeId, key: &Key) -> Option<(Artifact, Status)> {
+    /// A stage's value from memory, the local cache or (given its entry) the remote, with
+    /// the bytes the remote sent.
+    fn load(&self, graph: &Graph, n: NodeId, key: &Key, entry: Option<&Entry>) -> Option<(Artifact, Status, u64)> {
         if let Some(a) = self.memory.and_then(|m| m.get(key)) {
-            return Some((a, Status::Memory));
+            return Some((a, Status::Memory, 0));
         }
-        match self.cache.get(key) {
-            Lookup::Hit(bytes) => graph.nodes[n].stage.decode(&bytes).ok().map(|a| (a, Status::Hit)),
-            Lookup::Miss | Lookup::Corrupt => None,
+        let stage = &graph.nodes[n].stage;
+        if let Lookup::Hit(bytes) = self.cache.get(key) {
+            if let Ok(a) = stage.decode(&bytes) {
+                return Some((a, Status::Hit, 0));
+            }
         }
+        let (remote, entry) = (self.remote?, entry?);
+        let payload = remote.fetch(&entry.payload)?;
+        let warnings = match &entry.warnings {
+            Some(w) => Some(remote.fetch(w)?),
+            None => None,
+        };
+        let Ok(artifact) = stage.decode(&payload) else {
+            // Verified bytes that do not decode: a payload of another build of tessera.
+            return None;
+        };
+        remote.count_hit();
+        let moved = (payload.len() + warnings.as_ref().map_or(0, Vec::len)) as u64;
+        // Verified, so safe to keep; a local cache that cannot be written costs speed only.
+        let _ = self.cache.put(key, &payload);
+        if let Some(w) = warnings.filter(|w| serde_json::from_slice::<Vec<String>>(w).is_ok()) {
+            let _ = self.cache.put(&key.warnings(), &w);
+        }
+        Some((artifact, Status::Remote, moved))
     }
 
     fn execute(
@@ -317,9 +394,14 @@ impl Executor<'_> {
             Err(e) => return (Err(e), warnings),
         };
         // A cache that cannot be written costs speed, not correctness: carry on.
-        let _ = self.cache.put(key, &node.stage.encode(&artifact));
-        if !warnings.is_empty() {
-            let _ = self.cache.put_warnings(key, &warnings);
+        let payload = node.stage.encode(&artifact);
+        let _ = self.cache.put(key, &payload);
+        let warnings_json = (!warnings.is_empty()).then(|| serde_json::to_vec(&warnings).unwrap_or_default());
+        if let Some(w) = &warnings_json {
+            let _ = self.cache.put(&key.warnings(), w);
+        }
+        if let Some(r) = self.remote {
+            r.upload(*key, payload, warnings_json);
         }
         (Ok(artifact), warnings)
     }
@@ -327,7 +409,7 @@ impl Executor<'_> {
     /// The warnings a stage that did not run gave when it ran for its cache entry.
     fn cached_warnings(&self, status: Status, key: &Key) -> Vec<String> {
         match status {
-            Status::Hit | Status::Memory | Status::Fresh => self.cache.warnings(key),
+            Status::Hit | Status::Remote | Status::Memory | Status::Fresh => self.cache.warnings(key),
             Status::Ran | Status::Rebuilt => Vec::new(),
         }
     }

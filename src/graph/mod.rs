@@ -6,7 +6,9 @@ pub mod exec;
 pub mod files;
 pub mod key;
 pub mod progress;
+pub mod remote;
 pub mod stage;
+pub mod stats;
 pub mod watch;
 pub mod world;
 

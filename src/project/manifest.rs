@@ -21,6 +21,61 @@ pub struct Manifest {
     pub paths: Paths,
     pub check: Check,
     pub limits: Limits,
+    pub cache: CacheSection,
+}
+
+/// `[cache]`: a shared remote cache under the local one (Bazel's HTTP remote-cache protocol).
+/// Credentials never go here: they come from `TESSERA_REMOTE_CACHE_TOKEN` (a bearer token)
+/// or `TESSERA_REMOTE_CACHE_BASIC` (`user:password`).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct CacheSection {
+    /// `http://host:port/prefix` or `https://…`.
+    #[serde(deserialize_with = "remote_url")]
+    pub remote: Option<String>,
+    /// `"read-write"` (the default) or `"read-only"`: read from the remote, never upload.
+    pub mode: RemoteMode,
+    /// Seconds any request, or the wait for uploads after a build, may take (default 10).
+    #[serde(deserialize_with = "timeout_seconds")]
+    pub timeout: f64,
+    /// The largest blob sent or fetched (`"256 MiB"` or a byte count; default 256 MiB).
+    #[serde(deserialize_with = "blob_size")]
+    pub max_blob: u64,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum RemoteMode {
+    #[default]
+    ReadWrite,
+    ReadOnly,
+}
+
+impl Default for CacheSection {
+    fn default() -> Self {
+        CacheSection { remote: None, mode: RemoteMode::ReadWrite, timeout: 10.0, max_blob: 256 << 20 }
+    }
+}
+
+fn remote_url<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<String>, D::Error> {
+    let s = String::deserialize(d)?;
+    crate::graph::remote::parse_url(&s).map(Some).map_err(serde::de::Error::custom)
+}
+
+fn timeout_seconds<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let t = f64::deserialize(d)?;
+    if t.is_finite() && t > 0.0 && t <= 3600.0 {
+        Ok(t)
+    } else {
+        Err(serde::de::Error::custom("timeout is a number of seconds in (0, 3600]"))
+    }
+}
+
+fn blob_size<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u64, D::Error> {
+    match memory_size(d)? {
+        Some(b) => Ok(b),
+        None => Err(serde::de::Error::custom("max_blob must be positive")),
+    }
 }
 
 #[derive(Clone, Debug, Default, Deserialize, PartialEq)]
@@ -40,7 +95,7 @@ fn memory_size<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<u64>, D:
         Text(String),
     }
     match Size::deserialize(d)? {
-        Size::Bytes(0) => Err(serde::de::Error::custom("max_memory must be positive")),
+        Size::Bytes(0) => Err(serde::de::Error::custom("a size must be positive")),
         Size::Bytes(b) => Ok(Some(b)),
         Size::Text(t) => crate::graph::budget::parse_bytes(&t).map(Some).map_err(serde::de::Error::custom),
     }
@@ -107,7 +162,7 @@ pub fn load(root: &Path) -> Result<Manifest, Diagnostics> {
         let d = Diagnostic::error(format!("invalid {FILE_NAME}: {}", e.message()))
             .with_code("tessera::manifest")
             .with_label(Span::new(id, range.start, range.end), "here")
-            .with_help("sections are [paths] (scenes, outputs, golden, cache), [check] (tolerance, outliers) and [limits] (max_memory)");
+            .with_help("sections are [paths] (scenes, outputs, golden, cache), [check] (tolerance, outliers), [limits] (max_memory) and [cache] (remote, mode, timeout, max_blob)");
         Diagnostics::new(vec![d], sources)
     })?;
     check_paths(root, &path, &text)?;

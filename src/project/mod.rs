@@ -20,9 +20,11 @@ use std::time::Instant;
 
 pub use check::{check_diagnostics, CheckRow, CheckStatus};
 pub use manifest::Manifest;
-pub use show::{graph_dot, graph_text, timings_table};
+pub use show::{bytes, graph_dot, graph_text, timings_table};
 pub use watch::{watch, WatchEvent};
 
+use crate::graph::remote::{Auth, Remote, RemoteConfig};
+use crate::graph::stats::Stats;
 use crate::graph::{self, files, Budget, Cache, Executor, Key, MemoryCache, Report, World};
 use crate::kinds::{self, Bytes, Plan, PlannedOutput};
 use crate::lang::{self, Diagnostic, Diagnostics, Scene};
@@ -43,6 +45,8 @@ pub struct Project {
     pub progress: bool,
     /// The memory budget planning and stages are held to (see `set_budget`).
     pub budget: Budget,
+    /// The shared cache under the local one (`[cache] remote`, `--remote-cache`).
+    pub remote: Option<Arc<Remote>>,
 }
 
 /// A build that did not complete: diagnostics, and the stage report up to the failure.
@@ -124,7 +128,42 @@ impl Project {
             seed: None,
             progress: true,
             budget,
+            remote: None,
         })
+    }
+
+    /// Connects the remote cache at `url` (`None`: none), reading credentials from the
+    /// environment: `TESSERA_REMOTE_CACHE_TOKEN` (bearer) or `TESSERA_REMOTE_CACHE_BASIC`
+    /// (`user:password`). `[cache]` gives the timeout and the blob limit.
+    pub fn set_remote(&mut self, url: Option<&str>, read_only: bool) -> Result<(), Failed> {
+        let Some(url) = url else {
+            self.remote = None;
+            return Ok(());
+        };
+        let url = graph::remote::parse_url(url).map_err(plain_error)?;
+        let secret = |name: &str| std::env::var(name).ok().filter(|v| !v.is_empty());
+        let auth = match (secret("TESSERA_REMOTE_CACHE_TOKEN"), secret("TESSERA_REMOTE_CACHE_BASIC")) {
+            (Some(_), Some(_)) => {
+                return Err(plain_error(
+                    "both TESSERA_REMOTE_CACHE_TOKEN and TESSERA_REMOTE_CACHE_BASIC are set; keep one".into(),
+                ))
+            }
+            (Some(t), None) => Some(Auth::Bearer(t)),
+            (None, Some(b)) if !b.contains(':') => {
+                return Err(plain_error("TESSERA_REMOTE_CACHE_BASIC is `user:password`, and has no `:`".into()))
+            }
+            (None, Some(b)) => Some(Auth::Basic(b)),
+            (None, None) => None,
+        };
+        let c = &self.manifest.cache;
+        self.remote = Some(Remote::new(RemoteConfig {
+            url,
+            read_only,
+            timeout: std::time::Duration::from_secs_f64(c.timeout),
+            max_blob: c.max_blob,
+            auth,
+        }));
+        Ok(())
     }
 
     /// Holds planning, stages and file reads to `budget`.
@@ -189,6 +228,7 @@ impl Project {
             world: &self.world,
             cache: &self.cache,
             memory: self.memory.as_ref(),
+            remote: self.remote.as_ref(),
             progress: self.progress,
             budget: self.budget,
         }
@@ -200,7 +240,10 @@ impl Project {
         let name = self.scene_name(path)?;
         let (scene, plan) = self.compile(path)?;
         let targets: Vec<_> = plan.outputs.iter().map(|o| o.node).collect();
-        let outcome = match self.executor().run(&plan.graph, &targets) {
+        let before = self.remote.as_ref().map(|r| r.traffic()).unwrap_or_default();
+        let run = self.executor().run(&plan.graph, &targets);
+        let run = self.settle_remote(run, before);
+        let outcome = match run {
             Ok(o) => o,
             Err((failure, report)) => {
                 let d = plan.diagnose(&scene, &failure);
@@ -227,6 +270,37 @@ impl Project {
             report: outcome.report,
             millis: start.elapsed().as_secs_f64() * 1000.0,
         })
+    }
+
+    /// Waits (at most the remote's timeout) for the build's uploads, notes the bytes each
+    /// stage sent, and adds the build to the cache's counts.
+    fn settle_remote(
+        &self,
+        mut run: Result<graph::Outcome, (graph::Failure, Report)>,
+        before: graph::remote::Traffic,
+    ) -> Result<graph::Outcome, (graph::Failure, Report)> {
+        let report = match &mut run {
+            Ok(o) => &mut o.report,
+            Err((_, r)) => r,
+        };
+        let mut traffic = graph::remote::Traffic::default();
+        if let Some(remote) = &self.remote {
+            let sent = remote.settle();
+            for s in &mut report.stages {
+                s.bytes_up = sent.get(&s.key).copied().unwrap_or(0);
+            }
+            let now = remote.traffic();
+            traffic = graph::remote::Traffic {
+                lookups: now.lookups - before.lookups,
+                hits: now.hits - before.hits,
+                bytes_down: now.bytes_down - before.bytes_down,
+                bytes_up: report.stages.iter().map(|s| s.bytes_up).sum(),
+                faults: now.faults - before.faults,
+            };
+        }
+        // Counting is best effort: a cache that cannot be written costs the count only.
+        let _ = self.cache.add_stats(&Stats::of_build(report, traffic));
+        run
     }
 
     /// The name of a scene, which names its output and golden directories: its path below

@@ -39,18 +39,42 @@ pub fn graph_dot(plan: &Plan, keys: &[Key], cache: &Cache) -> String {
     s
 }
 
-/// Per-stage times and cache state, for `--timings`.
+/// Per-stage times and cache state, for `--timings`: where each stage came from (`local`
+/// and `memory` caches, the `remote` one, `ran`, `rebuilt` over a damaged entry, or `fresh`,
+/// not needed) and the bytes it moved to or from a remote cache.
 pub fn timings_table(report: &Report) -> String {
     let mut s = String::new();
     for r in &report.stages {
         let state = match r.status {
             Status::Fresh => "fresh",
-            Status::Hit => "hit",
+            Status::Hit => "local",
+            Status::Remote => "remote",
             Status::Memory => "memory",
             Status::Ran => "ran",
             Status::Rebuilt => "rebuilt",
         };
-        let _ = writeln!(s, "  {:>9.2} ms  {:<7} {:<16} {}", r.millis, state, r.kind, r.label);
+        let moved = match (r.bytes_down, r.bytes_up) {
+            (0, 0) => String::new(),
+            (down, 0) => format!("  ↓ {}", bytes(down)),
+            (0, up) => format!("  ↑ {}", bytes(up)),
+            (down, up) => format!("  ↓ {} ↑ {}", bytes(down), bytes(up)),
+        };
+        let _ = writeln!(s, "  {:>9.2} ms  {:<7} {:<16} {}{moved}", r.millis, state, r.kind, r.label);
     }
     s
+}
+
+/// A byte count for people: `512 B`, `3.2 KiB`, `41.0 MiB`.
+pub fn bytes(n: u64) -> String {
+    const UNITS: [&str; 4] = ["KiB", "MiB", "GiB", "TiB"];
+    if n < 1024 {
+        return format!("{n} B");
+    }
+    let mut v = n as f64 / 1024.0;
+    let mut unit = 0;
+    while v >= 1024.0 && unit + 1 < UNITS.len() {
+        v /= 1024.0;
+        unit += 1;
+    }
+    format!("{v:.1} {}", UNITS[unit])
 }

@@ -48,6 +48,12 @@ pub struct Global {
     pub max_memory: Option<u64>,
     /// Instead of every scene's `seed`.
     pub seed: Option<u64>,
+    /// The remote cache instead of `[cache] remote`.
+    pub remote_cache: Option<String>,
+    /// Read from the remote cache, never upload (whatever `[cache] mode` says).
+    pub remote_read_only: bool,
+    /// No remote cache, whatever `[cache] remote` says.
+    pub no_remote_cache: bool,
 }
 
 /// Runs parallel work on `jobs` threads (at least one). Outputs do not depend on it.
@@ -66,6 +72,10 @@ impl Global {
         if let Some(m) = self.max_memory {
             p.set_budget(crate::graph::Budget::new(m));
         }
+        let url =
+            if self.no_remote_cache { None } else { self.remote_cache.clone().or(p.manifest.cache.remote.clone()) };
+        let read_only = self.remote_read_only || p.manifest.cache.mode == super::manifest::RemoteMode::ReadOnly;
+        p.set_remote(url.as_deref(), read_only).map_err(|f| print_failed(&f))?;
         Ok(p)
     }
 }
@@ -100,6 +110,47 @@ pub fn gc(g: &Global, all: bool) -> Outcome {
             "warning: {} file(s) in the cache directory are not cache entries and were left alone, e.g. `{}`",
             r.foreign.len(),
             r.foreign[0].display()
+        );
+    }
+    Ok(())
+}
+
+/// `tessera cache stats`: the hit rates of the builds this cache has seen.
+pub fn cache_stats(g: &Global) -> Outcome {
+    let p = g.open()?;
+    let s = p.cache.stats();
+    let (entries, bytes) = p.cache.size();
+    let remote = p.remote.as_ref().map(|r| (r.url().to_string(), r.read_only()));
+    if messages::json() {
+        let mut v = serde_json::json!({ "type": "cache_stats", "entries": entries, "bytes": bytes });
+        for (k, x) in serde_json::to_value(s).unwrap_or_default().as_object().into_iter().flatten() {
+            v[k.as_str()] = x.clone();
+        }
+        v["remote"] = remote.map(|(url, ro)| serde_json::json!({ "url": url, "read_only": ro })).into();
+        messages::emit(v);
+        return Ok(());
+    }
+    use super::bytes as size;
+    use crate::graph::stats::Stats;
+    let pct = |n| Stats::percent(n, s.needed);
+    println!("cache {}: {entries} entries, {}", print::shown(p.cache.dir()).display(), size(bytes));
+    println!("{} builds needed {} stages:", s.builds, s.needed);
+    println!("  local hits   {:>8}  {:5.1} %", s.local_hits, pct(s.local_hits));
+    println!("  remote hits  {:>8}  {:5.1} %", s.remote_hits, pct(s.remote_hits));
+    println!("  computed     {:>8}  {:5.1} %", s.computed, pct(s.computed));
+    match remote {
+        Some((url, ro)) => println!("remote {url}{}", if ro { " (read-only)" } else { "" }),
+        None => println!("remote: none configured"),
+    }
+    if s.remote_lookups > 0 || s.bytes_up > 0 {
+        println!(
+            "  {} lookups, {} hits ({:.1} %); {} down, {} up; {} builds with a fault",
+            s.remote_lookups,
+            s.remote_hits,
+            Stats::percent(s.remote_hits, s.remote_lookups),
+            size(s.bytes_down),
+            size(s.bytes_up),
+            s.remote_faults
         );
     }
     Ok(())

@@ -49,6 +49,19 @@ pub(super) fn warnings(scene: Option<&str>, report: &Report) {
     }
 }
 
+/// The one warning of a remote cache that failed (once per process: the remote is off from
+/// then on).
+pub(super) fn remote_warning(p: &Project) {
+    let Some(w) = p.remote.as_ref().and_then(|r| r.take_warning()) else { return };
+    if messages::json() {
+        let mut v = messages::stage_warning(None, "remote cache", &w);
+        v["code"] = "tessera::remote".into();
+        messages::emit(v);
+    } else {
+        eprintln!("warning: {w}");
+    }
+}
+
 /// What one scene's build did: its stages and where its outputs went (unless `-q`), with
 /// `--timings` each stage's time.
 pub(super) fn built(g: &Global, p: &Project, scene: &Path, built: &Built, emitted: &[Emitted]) {

@@ -288,6 +288,7 @@ fn build_and_emit(
 ) -> Result<Built, Failed> {
     let built = p.build(scene);
     bar.suspend(|| {
+        print::remote_warning(p);
         let printed = |f: Failed| {
             print_failed(&f);
             f

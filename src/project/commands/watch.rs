@@ -46,6 +46,7 @@ pub fn watch(g: &Global, scene: &Path, debounce: Duration, serve: Option<&str>) 
                     preview.publish(view, Some(project.preview_files()));
                 }
                 print::warnings(Some(&built.name), &built.report);
+                print::remote_warning(project);
                 if messages::json() {
                     messages::stages(&built.name, &built.report);
                     messages::outputs(&built.name, emitted);

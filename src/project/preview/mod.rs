@@ -176,7 +176,7 @@ impl Project {
                     label: s.label.clone(),
                     status: match s.status {
                         Status::Ran | Status::Rebuilt => "ran",
-                        Status::Fresh | Status::Hit | Status::Memory => "cached",
+                        Status::Fresh | Status::Hit | Status::Remote | Status::Memory => "cached",
                     },
                     millis: s.millis,
                 })
