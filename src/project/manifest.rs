@@ -159,6 +159,13 @@ pub fn load(root: &Path) -> Result<Manifest, Diagnostics> {
         let mut sources = SourceMap::default();
         let id = sources.add(path.clone(), FILE_NAME.into(), Arc::from(text.as_str()));
         let range = e.span().unwrap_or(0..0);
+        if e.message().contains("holds credentials") {
+            // Showing the line would repeat the secret: name the line instead.
+            let line = text[..range.start.min(text.len())].lines().count().max(1);
+            let d = Diagnostic::error(format!("invalid {FILE_NAME} (line {line}, [cache] remote): {}", e.message()))
+                .with_code("tessera::manifest");
+            return Diagnostics::new(vec![d], SourceMap::default());
+        }
         let d = Diagnostic::error(format!("invalid {FILE_NAME}: {}", e.message()))
             .with_code("tessera::manifest")
             .with_label(Span::new(id, range.start, range.end), "here")

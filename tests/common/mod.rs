@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests: a scratch project and the `tessera` binary.
 #![allow(dead_code)]
 
+pub mod nginx;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};

@@ -1,0 +1,283 @@
+//! The remote cache against a real server: nginx with its WebDAV module, configured as a
+//! Bazel HTTP cache on loopback (`tests/fixtures/nginx-remote-cache.conf`), started by the
+//! harness. A second project with an empty local cache builds every example scene from the
+//! remote alone; a server that fails (500s), answers slowly, serves damaged blobs, wants a
+//! token it is not given, or stops mid-build costs one warning and a local build, never a
+//! wrong output or a damaged local cache.
+//!
+//! Needs nginx (`.ci/run` installs Debian's `nginx-light`). Without it the tests say so and
+//! pass, unless `TESSERA_REQUIRE_NGINX` is set (as CI does), when they fail.
+
+#![cfg(unix)]
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::nginx::{Nginx, TOKEN};
+use common::{copy_dir, parse_report, tree, Project, Run};
+
+/// Runs tessera in `dir` with `env` set (and no credentials from the test's environment).
+fn tessera(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Run {
+    let mut c = Command::new(common::bin());
+    c.args(args)
+        .current_dir(dir)
+        .env("NO_COLOR", "1")
+        .env_remove("RUST_BACKTRACE")
+        .env_remove("TESSERA_REMOTE_CACHE_TOKEN")
+        .env_remove("TESSERA_REMOTE_CACHE_BASIC");
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    Run { out: c.output().expect("run tessera") }
+}
+
+/// Statuses of a `--report` file's stages, counted.
+fn statuses(p: &Project) -> BTreeMap<String, usize> {
+    let mut m = BTreeMap::new();
+    let stages = parse_report(&std::fs::read_to_string(p.path("report.json")).expect("report"));
+    for s in stages {
+        *m.entry(s.status).or_insert(0) += 1;
+    }
+    m
+}
+
+fn remote_warnings(run: &Run) -> usize {
+    run.stderr().lines().filter(|l| l.starts_with("warning: remote cache")).count()
+}
+
+/// Every file of a local cache (its entries), by path below the cache, with its bytes.
+fn cache_entries(p: &Project) -> BTreeMap<PathBuf, Vec<u8>> {
+    tree(&p.path(".tessera/cache")).into_iter().filter(|(path, _)| path.components().count() == 2).collect()
+}
+
+/// A few quick scenes of the repository, for the fault tests (which compute them again).
+const QUICK: [&str; 5] =
+    ["scenes/blend.tess", "scenes/cells.tess", "scenes/quilt.tess", "scenes/noise_tiling.tess", "scenes/shaders.tess"];
+
+fn build_args<'a>(url: Option<&'a str>, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec!["build", "--report", "report.json"];
+    match url {
+        Some(u) => args.extend(["--remote-cache", u]),
+        None => args.push("--no-remote-cache"),
+    }
+    args.extend_from_slice(extra);
+    args
+}
+
+/// The reference: the quick scenes built with no remote; their outputs and cache entries.
+fn reference() -> (Project, Vec<(PathBuf, Vec<u8>)>, BTreeMap<PathBuf, Vec<u8>>) {
+    let p = Project::copy_of_repo();
+    tessera(p.dir.path(), &build_args(None, &QUICK), &[]).ok();
+    let out = tree(&p.path("out"));
+    let cache = cache_entries(&p);
+    (p, out, cache)
+}
+
+/// Nothing damaged entered `p`'s local cache: each entry is byte for byte the one a build
+/// with no remote wrote under the same name.
+#[track_caller]
+fn cache_is_clean(p: &Project, reference: &BTreeMap<PathBuf, Vec<u8>>) {
+    let entries = cache_entries(p);
+    assert!(!entries.is_empty());
+    for (path, bytes) in entries {
+        let want = reference.get(&path).unwrap_or_else(|| panic!("{} is in no reference cache", path.display()));
+        assert!(bytes == *want, "{} differs from the reference entry", path.display());
+    }
+}
+
+#[test]
+fn a_second_project_builds_every_scene_from_the_remote_alone() {
+    let Some((server, _one)) = Nginx::start() else { return };
+    let url = server.url("cache");
+    let first = Project::copy_of_repo();
+    let run = tessera(first.dir.path(), &build_args(Some(&url), &[]), &[]);
+    run.ok();
+    assert_eq!(remote_warnings(&run), 0, "{}", run.stderr());
+    assert!(statuses(&first).get("ran").is_some_and(|&n| n > 100), "{:?}", statuses(&first));
+    assert!(server.stored().len() > 200, "uploads reached the server");
+
+    let second = Project::copy_of_repo();
+    let run = tessera(second.dir.path(), &build_args(Some(&url), &["--timings"]), &[]);
+    run.ok();
+    let s = statuses(&second);
+    assert_eq!(s.get("ran"), None, "nothing computed: {s:?}");
+    assert_eq!(s.get("rebuilt"), None, "{s:?}");
+    assert!(s.get("remote").is_some_and(|&n| n >= 31), "every scene's outputs from the remote: {s:?}");
+    assert!(run.stdout().contains(" remote ") && run.stdout().contains('↓'), "timings show remote hits and bytes");
+    assert_eq!(tree(&first.path("out")), tree(&second.path("out")), "outputs byte-identical to the first build");
+
+    let stats = tessera(second.dir.path(), &["cache", "stats"], &[]);
+    stats.ok();
+    let line =
+        |name: &str| stats.stdout().lines().find(|l| l.trim_start().starts_with(name)).unwrap_or_default().to_string();
+    assert!(line("computed").split_whitespace().nth(1) == Some("0"), "{}", stats.stdout());
+    assert!(line("remote hits").contains("100.0 %"), "{}", stats.stdout());
+    // The JSON report has the bytes each stage moved.
+    let report = std::fs::read_to_string(second.path("report.json")).expect("report");
+    assert!(report.contains("\"bytes_down\""), "{report}");
+    tessera(second.dir.path(), &["check", "-q", "--no-remote-cache"], &[]).ok();
+}
+
+#[test]
+fn faults_cost_one_warning_and_a_local_build_never_a_wrong_output() {
+    let Some((server, _one)) = Nginx::start() else { return };
+    let (_reference, out, entries) = reference();
+    // Fill the remote with the quick scenes.
+    let filler = Project::copy_of_repo();
+    tessera(filler.dir.path(), &build_args(Some(&server.url("cache")), &QUICK), &[]).ok();
+    // A damaged copy: every other blob cut short, the rest with one byte flipped.
+    let damaged = server.dir.path().join("damaged");
+    copy_dir(&server.dir.path().join("data/cache"), &damaged);
+    let mut blobs: Vec<PathBuf> =
+        std::fs::read_dir(damaged.join("cas")).expect("cas").flatten().map(|e| e.path()).collect();
+    blobs.sort();
+    assert!(blobs.len() > 10);
+    for (i, b) in blobs.iter().enumerate() {
+        let mut bytes = std::fs::read(b).expect("blob");
+        if i % 2 == 0 {
+            bytes.truncate(bytes.len() / 2);
+        } else {
+            let mid = bytes.len() / 2;
+            bytes[mid] ^= 0x40;
+        }
+        std::fs::write(b, bytes).expect("damage");
+    }
+
+    for (location, what) in
+        [("broken", "HTTP 500"), ("slow", "no answer within the timeout"), ("damaged", "failed verification")]
+    {
+        let p = Project::copy_of_repo();
+        let manifest = std::fs::read_to_string(p.path("tessera.toml")).expect("manifest");
+        std::fs::write(p.path("tessera.toml"), format!("{manifest}\n[cache]\ntimeout = 1\n")).expect("manifest");
+        let start = Instant::now();
+        let run = tessera(p.dir.path(), &build_args(Some(&server.url(location)), &QUICK), &[]);
+        run.ok();
+        assert_eq!(remote_warnings(&run), 1, "{location}: one warning:\n{}", run.stderr());
+        assert!(run.stderr().contains(what), "{location}: {}", run.stderr());
+        assert!(start.elapsed() < Duration::from_secs(60), "{location}: the build was not held up");
+        assert_eq!(tree(&p.path("out")), out, "{location}: outputs are those of a local build");
+        cache_is_clean(&p, &entries);
+        // And the local cache alone serves the next build.
+        tessera(p.dir.path(), &build_args(None, &QUICK), &[]).ok();
+        let s = statuses(&p);
+        assert_eq!((s.get("ran"), s.get("rebuilt")), (None, None), "{location}: {s:?}");
+    }
+}
+
+#[test]
+fn a_server_stopped_mid_build_costs_one_warning() {
+    let Some((mut server, _one)) = Nginx::start() else { return };
+    let (_reference, out, entries) = reference();
+    let p = Project::copy_of_repo();
+    let url = server.url("cache");
+    let args = build_args(Some(&url), &QUICK);
+    let mut child = Command::new(common::bin())
+        .args(&args)
+        .current_dir(p.dir.path())
+        .env("NO_COLOR", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run tessera");
+    // Stop the server once the first upload has reached it.
+    let start = Instant::now();
+    while !server.access_log().contains("PUT") {
+        assert!(start.elapsed() < Duration::from_secs(60), "no upload reached the server");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    server.kill();
+    let run = Run { out: child.wait_with_output().expect("tessera") };
+    run.ok();
+    assert_eq!(remote_warnings(&run), 1, "{}", run.stderr());
+    assert_eq!(tree(&p.path("out")), out);
+    cache_is_clean(&p, &entries);
+}
+
+#[test]
+fn read_only_never_uploads_and_credentials_stay_secret() {
+    let Some((server, _one)) = Nginx::start() else { return };
+    let p = Project::copy_of_repo();
+    let run = tessera(p.dir.path(), &build_args(Some(&server.url("cache")), &["--remote-read-only", QUICK[0]]), &[]);
+    run.ok();
+    assert_eq!(remote_warnings(&run), 0, "{}", run.stderr());
+    assert!(server.stored().is_empty(), "read-only uploaded nothing");
+    assert!(!server.access_log().contains("PUT"));
+    assert!(server.access_log().contains("GET"), "but it did look");
+
+    // Behind a token: given, it uploads and the next project reads; not given, one warning.
+    let private = server.url("private");
+    let token = [("TESSERA_REMOTE_CACHE_TOKEN", TOKEN)];
+    let with = Project::copy_of_repo();
+    let run = tessera(with.dir.path(), &build_args(Some(&private), &[QUICK[0]]), &token);
+    run.ok();
+    assert_eq!(remote_warnings(&run), 0, "{}", run.stderr());
+    assert!(!server.stored().is_empty());
+    let again = Project::copy_of_repo();
+    let hit = tessera(again.dir.path(), &build_args(Some(&private), &["--timings", QUICK[0]]), &token);
+    hit.ok();
+    assert_eq!(statuses(&again).get("ran"), None);
+    let without = Project::copy_of_repo();
+    let refused = tessera(without.dir.path(), &build_args(Some(&private), &[QUICK[0]]), &[]);
+    refused.ok();
+    assert_eq!(remote_warnings(&refused), 1, "{}", refused.stderr());
+    assert!(refused.stderr().contains("HTTP 401"), "{}", refused.stderr());
+    for (run, p) in [(&run, &with), (&hit, &again)] {
+        let report = std::fs::read_to_string(p.path("report.json")).expect("report");
+        let stats = tessera(p.dir.path(), &["cache", "stats", "--message-format", "json"], &token);
+        for text in [run.stdout(), run.stderr(), report, stats.stdout(), stats.stderr()] {
+            assert!(!text.contains(TOKEN), "the token leaked:\n{text}");
+        }
+    }
+}
+
+#[test]
+fn bad_remote_settings_get_a_diagnostic_and_no_secret_is_repeated() {
+    let scene = "map a { from = constant(0.5)  size = 4 x 4 }\noutput \"a.png\" { from = a }\n";
+    for (setting, message) in [
+        ("remote = \"http://me:hunter2@cache.example/x\"", "credentials"),
+        ("remote = \"ftp://cache.example/x\"", "http:// or https://"),
+        ("remote = \"http://cache.example/x?key=1\"", "no query"),
+        ("timeout = 0", "timeout is a number of seconds"),
+        ("timeout = -3", "timeout is a number of seconds"),
+        ("max_blob = 0", "positive"),
+        ("mode = \"sometimes\"", "unknown variant"),
+    ] {
+        let p = Project::new(&[("scene.tess", scene)]);
+        p.write("tessera.toml", &format!("[paths]\nscenes = \".\"\n[cache]\n{setting}\n"));
+        let run = p.tessera(&["build", "scene.tess"]);
+        run.failed();
+        let err = common::flat(&run.stderr());
+        assert!(err.contains(message), "{setting}: {err}");
+        let name = setting.split(" = ").next().unwrap();
+        assert!(err.contains(name) || err.contains("line 4"), "{setting}: labelled: {err}");
+        assert!(!err.contains("hunter2"), "{err}");
+        assert!(!p.path("out").exists());
+    }
+    let p = Project::new(&[("scene.tess", scene)]);
+    let run = p.tessera(&["build", "--remote-cache", "http://u:hunter2@h/x", "scene.tess"]);
+    run.failed();
+    assert!(run.stderr().contains("credentials") && !run.stderr().contains("hunter2"), "{}", run.stderr());
+    let both = [("TESSERA_REMOTE_CACHE_TOKEN", "a"), ("TESSERA_REMOTE_CACHE_BASIC", "u:p")];
+    let run = tessera(p.dir.path(), &["build", "--remote-cache", "http://127.0.0.1:9/x", "scene.tess"], &both);
+    run.failed();
+    assert!(run.stderr().contains("keep one"), "{}", run.stderr());
+}
+
+#[test]
+fn a_server_that_is_not_there_costs_one_warning() {
+    let port = TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port();
+    let p = Project::new(&[
+        ("a.tess", "map a { from = constant(0.5)  size = 4 x 4 }\noutput \"a.png\" { from = a }\n"),
+        ("b.tess", "map b { from = constant(0.25)  size = 4 x 4 }\noutput \"b.png\" { from = b }\n"),
+    ]);
+    let url = format!("http://127.0.0.1:{port}/cache");
+    let run = tessera(p.dir.path(), &["build", "--remote-cache", &url], &[]);
+    run.ok();
+    assert_eq!(remote_warnings(&run), 1, "one warning for two scenes:\n{}", run.stderr());
+    assert!(p.path("out/a/a.png").exists() && p.path("out/b/b.png").exists());
+}
