@@ -29,7 +29,8 @@ fn tessera(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Run {
         .env("NO_COLOR", "1")
         .env_remove("RUST_BACKTRACE")
         .env_remove("TESSERA_REMOTE_CACHE_TOKEN")
-        .env_remove("TESSERA_REMOTE_CACHE_BASIC");
+        .env_remove("TESSERA_REMOTE_CACHE_BASIC")
+        .env("NO_PROXY", "127.0.0.1,localhost");
     for (k, v) in env {
         c.env(k, v);
     }
@@ -180,6 +181,7 @@ fn a_server_stopped_mid_build_costs_one_warning() {
         .args(&args)
         .current_dir(p.dir.path())
         .env("NO_COLOR", "1")
+        .env("NO_PROXY", "127.0.0.1,localhost")
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

@@ -16,8 +16,9 @@ use super::budget::Budget;
 use super::cache::{Cache, Lookup};
 use super::key::{Key, KeyBuilder};
 use super::progress::Progress;
-use super::remote::{Entry, Remote};
+use super::remote::{Entry, Remote, Traffic};
 use super::stage::{Artifact, Graph, NodeId, RunCx, StageError};
+use super::stats::Stats;
 use super::world::World;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -72,6 +73,22 @@ pub struct Report {
 }
 
 impl Report {
+    /// This build's counts for `tessera cache stats`, with the remote traffic it caused.
+    pub fn stats(&self, traffic: Traffic) -> Stats {
+        let count = |f: fn(Status) -> bool| self.stages.iter().filter(|s| f(s.status)).count() as u64;
+        Stats {
+            builds: 1,
+            needed: count(|s| s != Status::Fresh),
+            local_hits: count(|s| matches!(s, Status::Hit | Status::Memory)),
+            remote_hits: count(|s| s == Status::Remote),
+            computed: count(|s| matches!(s, Status::Ran | Status::Rebuilt)),
+            remote_lookups: traffic.lookups,
+            bytes_down: traffic.bytes_down,
+            bytes_up: traffic.bytes_up,
+            remote_faults: u64::from(traffic.faults > 0),
+        }
+    }
+
     pub fn ran(&self) -> impl Iterator<Item = &StageRecord> {
         self.stages.iter().filter(|s| matches!(s.status, Status::Ran | Status::Rebuilt))
     }

@@ -1,6 +1,6 @@
 //! A shared cache under the local one, over Bazel's HTTP remote-cache protocol: `GET`/`PUT`
-//! of `/ac/<sha256>` (action results) and `/cas/<sha256>` (blobs), as bazel-remote,
-//! NativeLink and nginx with WebDAV serve it.
+//! of `/ac/<sha256>` (action results) and `/cas/<sha256>` (blobs), as bazel-remote and
+//! nginx with WebDAV serve it (docs/remote-cache.md).
 //!
 //! A stage key maps to an action-cache entry: a Bazel `ActionResult` naming the stage's
 //! payload (and its warnings, when it gave some) as output files by SHA-256 digest. The

@@ -2,9 +2,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::exec::{Report, Status};
-use super::remote::Traffic;
-
 /// What builds took from where, added up since the cache was made (or the file removed).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default)]
@@ -27,22 +24,6 @@ pub struct Stats {
 }
 
 impl Stats {
-    /// One build's counts, from its report and the remote traffic it caused.
-    pub fn of_build(report: &Report, traffic: Traffic) -> Stats {
-        let count = |f: fn(Status) -> bool| report.stages.iter().filter(|s| f(s.status)).count() as u64;
-        Stats {
-            builds: 1,
-            needed: count(|s| s != Status::Fresh),
-            local_hits: count(|s| matches!(s, Status::Hit | Status::Memory)),
-            remote_hits: count(|s| s == Status::Remote),
-            computed: count(|s| matches!(s, Status::Ran | Status::Rebuilt)),
-            remote_lookups: traffic.lookups,
-            bytes_down: traffic.bytes_down,
-            bytes_up: traffic.bytes_up,
-            remote_faults: u64::from(traffic.faults > 0),
-        }
-    }
-
     pub fn add(&mut self, o: &Stats) {
         self.builds += o.builds;
         self.needed += o.needed;

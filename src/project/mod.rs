@@ -24,7 +24,6 @@ pub use show::{bytes, graph_dot, graph_text, timings_table};
 pub use watch::{watch, WatchEvent};
 
 use crate::graph::remote::{Auth, Remote, RemoteConfig};
-use crate::graph::stats::Stats;
 use crate::graph::{self, files, Budget, Cache, Executor, Key, MemoryCache, Report, World};
 use crate::kinds::{self, Bytes, Plan, PlannedOutput};
 use crate::lang::{self, Diagnostic, Diagnostics, Scene};
@@ -299,7 +298,7 @@ impl Project {
             };
         }
         // Counting is best effort: a cache that cannot be written costs the count only.
-        let _ = self.cache.add_stats(&Stats::of_build(report, traffic));
+        let _ = self.cache.add_stats(&report.stats(traffic));
         run
     }
 
