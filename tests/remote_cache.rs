@@ -71,7 +71,10 @@ fn build_args<'a>(url: Option<&'a str>, extra: &[&'a str]) -> Vec<&'a str> {
 }
 
 /// The reference: the quick scenes built with no remote; their outputs and cache entries.
-fn reference() -> (Project, Vec<(PathBuf, Vec<u8>)>, BTreeMap<PathBuf, Vec<u8>>) {
+/// Files by path with their bytes.
+type Files = Vec<(PathBuf, Vec<u8>)>;
+
+fn reference() -> (Project, Files, BTreeMap<PathBuf, Vec<u8>>) {
     let p = Project::copy_of_repo();
     tessera(p.dir.path(), &build_args(None, &QUICK), &[]).ok();
     let out = tree(&p.path("out"));
@@ -177,7 +180,7 @@ fn a_server_stopped_mid_build_costs_one_warning() {
     let p = Project::copy_of_repo();
     let url = server.url("cache");
     let args = build_args(Some(&url), &QUICK);
-    let mut child = Command::new(common::bin())
+    let child = Command::new(common::bin())
         .args(&args)
         .current_dir(p.dir.path())
         .env("NO_COLOR", "1")

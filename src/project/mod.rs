@@ -278,6 +278,7 @@ impl Project {
         mut run: Result<graph::Outcome, (graph::Failure, Report)>,
         before: graph::remote::Traffic,
     ) -> Result<graph::Outcome, (graph::Failure, Report)> {
+        let completed = run.is_ok();
         let report = match &mut run {
             Ok(o) => &mut o.report,
             Err((_, r)) => r,
@@ -297,8 +298,11 @@ impl Project {
                 faults: now.faults - before.faults,
             };
         }
-        // Counting is best effort: a cache that cannot be written costs the count only.
-        let _ = self.cache.add_stats(&report.stats(traffic));
+        // Completed builds are counted (a failed one leaves the cache as it was); counting
+        // is best effort: a cache that cannot be written costs the count only.
+        if completed {
+            let _ = self.cache.add_stats(&report.stats(traffic));
+        }
         run
     }
 
