@@ -20,7 +20,7 @@ use std::time::Instant;
 
 pub use check::{check_diagnostics, CheckRow, CheckStatus};
 pub use manifest::Manifest;
-pub use show::{bytes, graph_dot, graph_text, timings_table};
+pub use show::{graph_dot, graph_text, timings_table};
 pub use watch::{watch, WatchEvent};
 
 use crate::graph::remote::{Auth, Remote, RemoteConfig};

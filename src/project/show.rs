@@ -2,6 +2,7 @@
 
 use std::fmt::Write;
 
+use crate::graph::budget::Bytes;
 use crate::graph::{Cache, Key, Report, Status};
 use crate::kinds::Plan;
 
@@ -55,26 +56,11 @@ pub fn timings_table(report: &Report) -> String {
         };
         let moved = match (r.bytes_down, r.bytes_up) {
             (0, 0) => String::new(),
-            (down, 0) => format!("  ↓ {}", bytes(down)),
-            (0, up) => format!("  ↑ {}", bytes(up)),
-            (down, up) => format!("  ↓ {} ↑ {}", bytes(down), bytes(up)),
+            (down, 0) => format!("  ↓ {}", Bytes(down as f64)),
+            (0, up) => format!("  ↑ {}", Bytes(up as f64)),
+            (down, up) => format!("  ↓ {} ↑ {}", Bytes(down as f64), Bytes(up as f64)),
         };
         let _ = writeln!(s, "  {:>9.2} ms  {:<7} {:<16} {}{moved}", r.millis, state, r.kind, r.label);
     }
     s
-}
-
-/// A byte count for people: `512 B`, `3.2 KiB`, `41.0 MiB`.
-pub fn bytes(n: u64) -> String {
-    const UNITS: [&str; 4] = ["KiB", "MiB", "GiB", "TiB"];
-    if n < 1024 {
-        return format!("{n} B");
-    }
-    let mut v = n as f64 / 1024.0;
-    let mut unit = 0;
-    while v >= 1024.0 && unit + 1 < UNITS.len() {
-        v /= 1024.0;
-        unit += 1;
-    }
-    format!("{v:.1} {}", UNITS[unit])
 }

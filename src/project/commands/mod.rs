@@ -130,7 +130,7 @@ pub fn cache_stats(g: &Global) -> Outcome {
         messages::emit(v);
         return Ok(());
     }
-    use super::bytes as size;
+    let size = |n: u64| crate::graph::budget::Bytes(n as f64).to_string();
     use crate::graph::stats::Stats;
     let pct = |n| Stats::percent(n, s.needed);
     println!("cache {}: {entries} entries, {}", print::shown(p.cache.dir()).display(), size(bytes));
