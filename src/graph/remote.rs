@@ -228,7 +228,7 @@ impl Remote {
             return None;
         }
         let url = format!("{}/cas/{}", self.cfg.url, blob.hash);
-        let bytes = match self.get(&url, blob.size + 1) {
+        let bytes = match self.get(&url, blob.size.saturating_add(1)) {
             Ok(Some(b)) => b,
             Ok(None) => {
                 self.fault(format!("blob {} is named by an action result but missing", &blob.hash[..12]));
