@@ -376,7 +376,6 @@ impl Executor<'_> {
             // Verified bytes that do not decode: a payload of another build of tessera.
             return None;
         };
-        remote.count_hit();
         let moved = (payload.len() + warnings.as_ref().map_or(0, Vec::len)) as u64;
         // Verified, so safe to keep; a local cache that cannot be written costs speed only.
         let _ = self.cache.put(key, &payload);

@@ -84,11 +84,10 @@ impl BlobRef {
     }
 }
 
-/// What one build did with the remote, as `tessera cache stats` adds it up.
+/// What the remote saw: lookups, bytes and faults (hits are the report's `remote` stages).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Traffic {
     pub lookups: u64,
-    pub hits: u64,
     pub bytes_down: u64,
     pub bytes_up: u64,
     pub faults: u64,
@@ -102,7 +101,6 @@ pub struct Remote {
     /// The one warning of the first fault, until it is taken.
     warning: Mutex<Option<String>>,
     lookups: AtomicU64,
-    hits: AtomicU64,
     bytes_down: AtomicU64,
     bytes_up: AtomicU64,
     faults: AtomicU64,
@@ -141,7 +139,6 @@ impl Remote {
             off: AtomicBool::new(false),
             warning: Mutex::new(None),
             lookups: AtomicU64::new(0),
-            hits: AtomicU64::new(0),
             bytes_down: AtomicU64::new(0),
             bytes_up: AtomicU64::new(0),
             faults: AtomicU64::new(0),
@@ -175,7 +172,6 @@ impl Remote {
     pub fn traffic(&self) -> Traffic {
         Traffic {
             lookups: self.lookups.load(Ordering::Relaxed),
-            hits: self.hits.load(Ordering::Relaxed),
             bytes_down: self.bytes_down.load(Ordering::Relaxed),
             bytes_up: self.bytes_up.load(Ordering::Relaxed),
             faults: self.faults.load(Ordering::Relaxed),
@@ -250,11 +246,6 @@ impl Remote {
             return None;
         }
         Some(bytes)
-    }
-
-    /// Counts a stage found in the remote and loaded from it.
-    pub fn count_hit(&self) {
-        self.hits.fetch_add(1, Ordering::Relaxed);
     }
 
     /// Queues a stage's payload (and warnings) for upload: blobs first, then the entry that

@@ -292,7 +292,6 @@ impl Project {
             let now = remote.traffic();
             traffic = graph::remote::Traffic {
                 lookups: now.lookups - before.lookups,
-                hits: now.hits - before.hits,
                 bytes_down: now.bytes_down - before.bytes_down,
                 bytes_up: report.stages.iter().map(|s| s.bytes_up).sum(),
                 faults: now.faults - before.faults,
