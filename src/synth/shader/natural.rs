@@ -5,8 +5,8 @@
 use super::def::{Pattern, ShaderDef};
 use super::params::{Args, ParamDef as P};
 use super::prims::{
-    cell_random, coverage, fbm_lanes, floor, length, mix, octave_count, octave_weight, plastic, scale, smoothstep,
-    snoise_lanes, turbulence, turbulence_lanes, vl_noise_lanes,
+    cell_random, coverage, fbm_lanes, floor, length, mix, octave_count, octave_weight, plastic, scale, sin_cos_lanes,
+    smoothstep, snoise_lanes, turbulence, turbulence_lanes, vl_noise_lanes,
 };
 
 pub static CYCLONE: ShaderDef = ShaderDef {
@@ -26,7 +26,7 @@ pub static CYCLONE: ShaderDef = ShaderDef {
         P::colour("background", &[0.0, 0.0, 0.0], "Behind them."),
     ],
     stochastic: true,
-    version: 2,
+    version: 3,
     build: |v, seed| {
         let mut a = Args::new(v);
         let (ka, kd) = (a.f(), a.f());
@@ -64,17 +64,20 @@ impl Cyclone {
     #[inline(always)]
     fn shade_lanes<const N: usize>(&self, u: [f64; N], v: f64, fw: f64) -> [[f32; 3]; N] {
         let r = self.max_radius;
-        let (mut px, mut py, mut weight) = ([0.0; N], [0.0; N], [0.0; N]);
+        let (mut angle, mut weight) = ([0.0; N], [0.0; N]);
         for l in 0..N {
-            let (x, y) = (u[l] - 0.5, v - 0.5);
-            let radius = length(x, y);
+            let radius = length(u[l] - 0.5, v - 0.5);
             // The swirl: a turn that grows toward the eye; the rim and the eye fade out smoothly.
             let dist = (r - radius).max(0.0).powi(3);
-            let angle = std::f64::consts::PI + self.twist * std::f64::consts::TAU * (r - dist) / r;
-            let (sin, cos) = angle.sin_cos();
-            px[l] = (cos * x - sin * y) * self.frequency;
-            py[l] = (sin * x + cos * y) * self.frequency;
+            angle[l] = std::f64::consts::PI + self.twist * std::f64::consts::TAU * (r - dist) / r;
             weight[l] = smoothstep(0.05 * r, 0.1 * r, radius) * (1.0 - smoothstep(0.9 * r, r, radius));
+        }
+        let (sin, cos) = sin_cos_lanes(angle);
+        let (mut px, mut py) = ([0.0; N], [0.0; N]);
+        for l in 0..N {
+            let (x, y) = (u[l] - 0.5, v - 0.5);
+            px[l] = (cos[l] * x - sin[l] * y) * self.frequency;
+            py[l] = (sin[l] * x + cos[l] * y) * self.frequency;
         }
         // Outside the vortex there is no cloud to compute (catalogues sample small vortices).
         if weight.iter().all(|&w| w == 0.0) {
@@ -108,8 +111,10 @@ impl Cyclone {
     }
 }
 
-/// Points a row of a noise shader evaluates side by side.
-const ROW_LANES: usize = 8;
+/// Points a row of a noise shader evaluates side by side: sixteen fill AVX2's eight 32-bit
+/// lanes with hashes and four registers with f64s (cyclone at 1024²: 34 ms, against 40 with
+/// eight points and 55 with four).
+const ROW_LANES: usize = 16;
 
 /// The rows and points of a shader that has `shade_lanes::<N>(u, v, fw)`: a row by chunks of
 /// [`ROW_LANES`] points (compiled for AVX2 too, and run so where the CPU has it: the same
