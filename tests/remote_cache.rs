@@ -249,7 +249,13 @@ fn bad_remote_settings_get_a_diagnostic_and_no_secret_is_repeated() {
         ("remote = \"http://cache.example/x?key=1\"", "no query"),
         ("timeout = 0", "timeout is a number of seconds"),
         ("timeout = -3", "timeout is a number of seconds"),
+        ("timeout = 3601", "timeout is a number of seconds"),
+        ("timeout = nan", "timeout is a number of seconds"),
+        ("timeout = inf", "timeout is a number of seconds"),
+        ("timeout = 1e-320", "timeout is a number of seconds"),
         ("max_blob = 0", "positive"),
+        ("max_blob = -1", "max_blob"),
+        ("max_blob = \"99999999 TiB\"", "not a usable memory size"),
         ("mode = \"sometimes\"", "unknown variant"),
     ] {
         let p = Project::new(&[("scene.tess", scene)]);
