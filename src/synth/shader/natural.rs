@@ -113,7 +113,7 @@ impl Cyclone {
 
 /// Points a row of a noise shader evaluates side by side: sixteen fill AVX2's eight 32-bit
 /// lanes with hashes and four registers with f64s (cyclone at 1024²: 34 ms, against 40 with
-/// eight points and 55 with four).
+/// eight points).
 const ROW_LANES: usize = 16;
 
 /// The rows and points of a shader that has `shade_lanes::<N>(u, v, fw)`: a row by chunks of

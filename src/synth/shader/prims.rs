@@ -182,8 +182,8 @@ fn sin_cos_kernel(r: f64) -> (f64, f64) {
 
 /// `x.sin_cos()` at `N` points, lane by lane the same operations in loops the compiler runs
 /// in vector registers, where libm is a call per point (cyclone's swirl spent 15 % of its time
-/// there). Within an ulp or two of libm, and the same bits on every platform, which libm does
-/// not promise.
+/// there). Within an ulp or two of libm, and, for |x| below [`SIN_COS_LIMIT`], the same bits
+/// on every platform, which libm does not promise.
 #[inline(always)]
 pub fn sin_cos_lanes<const N: usize>(x: [f64; N]) -> ([f64; N], [f64; N]) {
     if !x.iter().all(|v| v.abs() < SIN_COS_LIMIT) {
