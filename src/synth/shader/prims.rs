@@ -182,7 +182,7 @@ fn sin_cos_kernel(r: f64) -> (f64, f64) {
 
 /// `x.sin_cos()` at `N` points, lane by lane the same operations in loops the compiler runs
 /// in vector registers, where libm is a call per point (cyclone's swirl spent 15 % of its time
-/// there). Within an ulp or two of libm, and, for |x| below [`SIN_COS_LIMIT`], the same bits
+/// there). Within an ulp or two of libm, and, for |x| below 10⁷, the same bits
 /// on every platform, which libm does not promise.
 #[inline(always)]
 pub fn sin_cos_lanes<const N: usize>(x: [f64; N]) -> ([f64; N], [f64; N]) {
