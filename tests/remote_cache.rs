@@ -253,6 +253,9 @@ fn bad_remote_settings_get_a_diagnostic_and_no_secret_is_repeated() {
         ("timeout = nan", "timeout is a number of seconds"),
         ("timeout = inf", "timeout is a number of seconds"),
         ("timeout = 1e-320", "timeout is a number of seconds"),
+        ("retry = -1", "retry is a number of seconds"),
+        ("retry = nan", "retry is a number of seconds"),
+        ("retry = 86401", "retry is a number of seconds"),
         ("max_blob = 0", "positive"),
         ("max_blob = -1", "max_blob"),
         ("max_blob = \"99999999 TiB\"", "not a usable memory size"),
@@ -291,4 +294,70 @@ fn a_server_that_is_not_there_costs_one_warning() {
     run.ok();
     assert_eq!(remote_warnings(&run), 1, "one warning for two scenes:\n{}", run.stderr());
     assert!(p.path("out/a/a.png").exists() && p.path("out/b/b.png").exists());
+}
+
+#[test]
+fn watch_asks_a_server_that_came_back() {
+    let Some((mut server, _one)) = Nginx::start() else { return };
+    let url = server.url("cache");
+    let scene = |v: &str| {
+        format!("map a {{\n  from = constant({v})\n  size = 32 x 32\n}}\n\noutput \"a.png\" {{ from = a }}\n")
+    };
+    let manifest = |extra: &str| format!("[paths]\nscenes = \".\"\n[cache]\nremote = \"{url}\"\n{extra}");
+    // A first project puts the 0.75 scene on the server; then the server goes down.
+    let first = Project::new(&[("scene.tess", &scene("0.75"))]);
+    first.write("tessera.toml", &manifest(""));
+    tessera(first.dir.path(), &["build", "scene.tess"], &[]).ok();
+    assert!(!server.stored().is_empty(), "the first build uploaded");
+    server.kill();
+
+    // A second project watches the 0.25 scene with the server down: one warning, a local build.
+    let p = Project::new(&[("scene.tess", &scene("0.25"))]);
+    p.write("tessera.toml", &manifest("retry = 0\ntimeout = 5\n"));
+    let (mut child, lines) = common::spawn_watch(&p, "scene.tess");
+    let until = |needle: &str| -> Vec<String> {
+        let deadline = Instant::now() + Duration::from_secs(30);
+        let mut seen = Vec::new();
+        while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+            let Ok(l) = lines.recv_timeout(left) else { break };
+            let hit = l.contains(needle);
+            seen.push(l);
+            if hit {
+                return seen;
+            }
+        }
+        panic!("no line with {needle:?} within 30 s:\n{}", seen.join("\n"))
+    };
+    let first_build = until("[watch] built");
+    let warned = |seen: &[String]| seen.iter().filter(|l| l.starts_with("warning: remote cache")).count();
+    assert!(first_build.iter().any(|l| l.contains("ran 2 stage(s)")), "{first_build:?}");
+
+    // The server comes back; the next build asks it again and takes the 0.75 scene from it:
+    // no stage runs, the output holds 0.75, and no further warning is printed.
+    let log_before = server.access_log().len();
+    server.restart();
+    std::thread::sleep(Duration::from_millis(20));
+    p.write("scene.tess", &scene("0.75"));
+    let mut seen = first_build.clone();
+    let value = || tessera::raster::io::decode(&p.read("out/scene/a.png")).expect("decode").get(0, 0, 0);
+    let start = Instant::now();
+    let rebuilt = loop {
+        let lines = until("[watch] built");
+        seen.extend(lines.iter().cloned());
+        if (value() - 0.75).abs() < 0.003 {
+            break lines;
+        }
+        assert!(start.elapsed() < Duration::from_secs(30), "the output holds {}", value());
+    };
+    let _ = child.kill();
+    let _ = child.wait();
+    // The warning is printed as the first build ends: it may come just after its line.
+    assert_eq!(warned(&seen), 1, "{seen:#?}");
+    let built = rebuilt.last().expect("a line");
+    assert!(built.contains("ran 0 stage(s); 1 output(s) written"), "{built}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p.path(".tessera/cache/stats.json")).expect("stats"))
+            .expect("json");
+    assert!(stats["remote_hits"].as_u64() >= Some(1), "{stats}");
+    assert!(server.access_log()[log_before..].contains("GET /cache/ac/"), "asked again");
 }

@@ -35,6 +35,8 @@ pub struct RemoteConfig {
     pub timeout: Duration,
     /// Blobs larger than this are neither uploaded nor downloaded.
     pub max_blob: u64,
+    /// How long a remote that faulted rests before a build asks it again ([`Remote::wake`]).
+    pub retry: Duration,
     pub auth: Option<Auth>,
 }
 
@@ -96,8 +98,10 @@ pub struct Traffic {
 pub struct Remote {
     cfg: RemoteConfig,
     agent: ureq::Agent,
-    /// Set at the first fault; from then on the remote is not asked again.
+    /// Set at a fault; from then on the remote is not asked again until [`Remote::wake`].
     off: AtomicBool,
+    /// When the remote was turned off.
+    off_since: Mutex<Option<Instant>>,
     /// The one warning of the first fault, until it is taken.
     warning: Mutex<Option<String>>,
     lookups: AtomicU64,
@@ -137,6 +141,7 @@ impl Remote {
             cfg,
             agent,
             off: AtomicBool::new(false),
+            off_since: Mutex::new(None),
             warning: Mutex::new(None),
             lookups: AtomicU64::new(0),
             bytes_down: AtomicU64::new(0),
@@ -182,12 +187,34 @@ impl Remote {
     fn fault(&self, what: String) {
         self.faults.fetch_add(1, Ordering::Relaxed);
         if !self.off.swap(true, Ordering::Relaxed) {
+            if let Ok(mut since) = self.off_since.lock() {
+                *since = Some(Instant::now());
+            }
             if let Ok(mut w) = self.warning.lock() {
+                let again = match self.cfg.retry {
+                    r if r.is_zero() => "in the next build".to_string(),
+                    r => format!("in a build {} s from now at the earliest", r.as_secs_f64()),
+                };
                 *w = Some(format!(
-                    "remote cache {}: {what}; building locally, without the remote, for the rest of this run",
+                    "remote cache {}: {what}; building locally without it, and asking it again {again}",
                     self.cfg.url
                 ));
             }
+        }
+    }
+
+    /// Called as a build starts: turns a remote that has been off for its `retry` or longer
+    /// back on, so one process (`watch`, a `build` of many scenes) uses a server that came
+    /// back, while one still down costs a warning per `retry` at most. Whether it did.
+    pub fn wake(&self) -> bool {
+        let Ok(mut since) = self.off_since.lock() else { return false };
+        match *since {
+            Some(t) if t.elapsed() >= self.cfg.retry => {
+                *since = None;
+                self.off.store(false, Ordering::Relaxed);
+                true
+            }
+            _ => false,
         }
     }
 
@@ -555,6 +582,7 @@ mod tests {
             read_only: false,
             timeout: Duration::from_secs(2),
             max_blob: 1 << 20,
+            retry: Duration::from_secs(60),
             auth: Some(Auth::Bearer("s3cret".into())),
         });
         assert_eq!(r.lookup(&Key([1; 32])), None);
@@ -564,5 +592,19 @@ mod tests {
         assert!(w.contains("building locally") && !w.contains("s3cret"), "{w}");
         assert_eq!(r.take_warning(), None, "only once");
         assert_eq!(r.traffic().lookups, 1);
+        // A build before the rest is over leaves it off; one after asks again, and a second
+        // fault costs a second warning.
+        assert!(w.contains("60 s"), "{w}");
+        assert!(!r.wake() && !r.active());
+        if let Ok(mut since) = r.off_since.lock() {
+            // As if the fault were 61 s old.
+            *since = since.map(|t| t.checked_sub(Duration::from_secs(61)).expect("up for a minute"));
+        }
+        assert!(r.wake() && r.active());
+        assert!(!r.wake(), "awake already");
+        assert_eq!(r.lookup(&Key([3; 32])), None);
+        assert!(!r.active());
+        assert!(r.take_warning().is_some());
+        assert_eq!((r.traffic().lookups, r.traffic().faults), (2, 2));
     }
 }

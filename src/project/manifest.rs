@@ -41,6 +41,10 @@ pub struct CacheSection {
     /// The largest blob sent or fetched (`"256 MiB"` or a byte count; default 256 MiB).
     #[serde(deserialize_with = "blob_size")]
     pub max_blob: u64,
+    /// Seconds a remote that faulted rests before a build asks it again (default 60; 0: the
+    /// next build).
+    #[serde(deserialize_with = "retry_seconds")]
+    pub retry: f64,
 }
 
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
@@ -53,7 +57,7 @@ pub enum RemoteMode {
 
 impl Default for CacheSection {
     fn default() -> Self {
-        CacheSection { remote: None, mode: RemoteMode::ReadWrite, timeout: 10.0, max_blob: 256 << 20 }
+        CacheSection { remote: None, mode: RemoteMode::ReadWrite, timeout: 10.0, max_blob: 256 << 20, retry: 60.0 }
     }
 }
 
@@ -69,6 +73,15 @@ fn timeout_seconds<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Err
         Ok(t)
     } else {
         Err(serde::de::Error::custom("timeout is a number of seconds in [0.001, 3600]"))
+    }
+}
+
+fn retry_seconds<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let t = f64::deserialize(d)?;
+    if (0.0..=86_400.0).contains(&t) {
+        Ok(t)
+    } else {
+        Err(serde::de::Error::custom("retry is a number of seconds in [0, 86400]"))
     }
 }
 
@@ -170,7 +183,7 @@ pub fn load(root: &Path) -> Result<Manifest, Diagnostics> {
         let d = Diagnostic::error(format!("invalid {FILE_NAME}: {}", e.message()))
             .with_code("tessera::manifest")
             .with_label(Span::new(id, range.start, range.end), "here")
-            .with_help("sections are [paths] (scenes, outputs, golden, cache), [check] (tolerance, outliers), [limits] (max_memory) and [cache] (remote, mode, timeout, max_blob)");
+            .with_help("sections are [paths] (scenes, outputs, golden, cache), [check] (tolerance, outliers), [limits] (max_memory) and [cache] (remote, mode, timeout, max_blob, retry)");
         Diagnostics::new(vec![d], sources)
     })?;
     check_paths(root, &path, &text)?;

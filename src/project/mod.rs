@@ -133,7 +133,8 @@ impl Project {
 
     /// Connects the remote cache at `url` (`None`: none), reading credentials from the
     /// environment: `TESSERA_REMOTE_CACHE_TOKEN` (bearer) or `TESSERA_REMOTE_CACHE_BASIC`
-    /// (`user:password`). `[cache]` gives the timeout and the blob limit.
+    /// (`user:password`). `[cache]` gives the timeout, the blob limit and the rest after a
+    /// fault.
     pub fn set_remote(&mut self, url: Option<&str>, read_only: bool) -> Result<(), Failed> {
         let Some(url) = url else {
             self.remote = None;
@@ -160,6 +161,7 @@ impl Project {
             read_only,
             timeout: std::time::Duration::from_secs_f64(c.timeout),
             max_blob: c.max_blob,
+            retry: std::time::Duration::from_secs_f64(c.retry),
             auth,
         }));
         Ok(())
@@ -240,6 +242,9 @@ impl Project {
         let (scene, plan) = self.compile(path)?;
         let targets: Vec<_> = plan.outputs.iter().map(|o| o.node).collect();
         let before = self.remote.as_ref().map(|r| r.traffic()).unwrap_or_default();
+        if let Some(remote) = &self.remote {
+            remote.wake();
+        }
         let run = self.executor().run(&plan.graph, &targets);
         let run = self.settle_remote(run, before);
         let outcome = match run {

@@ -253,6 +253,7 @@ pub fn spawn_tessera(p: &Project, args: &[&str]) -> (std::process::Child, std::s
         .args(args)
         .current_dir(p.dir.path())
         .env("NO_COLOR", "1")
+        .env("NO_PROXY", "127.0.0.1,localhost")
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

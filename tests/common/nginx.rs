@@ -12,6 +12,7 @@ use super::repo;
 pub struct Nginx {
     pub dir: tempfile::TempDir,
     pub port: u16,
+    bin: &'static str,
     child: Option<Child>,
 }
 
@@ -43,31 +44,39 @@ impl Nginx {
             .replace("@DIR@", dir.path().to_str().expect("utf-8"))
             .replace("@PORT@", &port.to_string())
             .replace("@TOKEN@", TOKEN);
-        let conf_path = dir.path().join("nginx.conf");
-        std::fs::write(&conf_path, conf).expect("write config");
+        std::fs::write(dir.path().join("nginx.conf"), conf).expect("write config");
+        let mut server = Nginx { dir, port, bin, child: None };
+        server.restart();
+        Some((server, guard))
+    }
+
+    /// Starts the server, again after [`Nginx::kill`]: the same port, the same stored files.
+    pub fn restart(&mut self) {
+        assert!(self.child.is_none(), "nginx is running");
+        let dir = self.dir.path();
         use std::os::unix::process::CommandExt;
-        let child = Command::new(bin)
+        let child = Command::new(self.bin)
             .process_group(0)
             .arg("-p")
-            .arg(dir.path())
+            .arg(dir)
             .arg("-e")
-            .arg(dir.path().join("error.log"))
+            .arg(dir.join("error.log"))
             .arg("-c")
-            .arg(&conf_path)
+            .arg(dir.join("nginx.conf"))
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
             .expect("start nginx");
+        self.child = Some(child);
         let start = Instant::now();
-        while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        while TcpStream::connect(("127.0.0.1", self.port)).is_err() {
             assert!(
                 start.elapsed() < Duration::from_secs(10),
                 "nginx did not start: {:?}",
-                std::fs::read_to_string(dir.path().join("error.log"))
+                std::fs::read_to_string(dir.join("error.log"))
             );
             std::thread::sleep(Duration::from_millis(20));
         }
-        Some((Nginx { dir, port, child: Some(child) }, guard))
     }
 
     pub fn url(&self, location: &str) -> String {
