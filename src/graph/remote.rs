@@ -102,7 +102,7 @@ pub struct Remote {
     off: AtomicBool,
     /// When the remote was turned off.
     off_since: Mutex<Option<Instant>>,
-    /// The one warning of the first fault, until it is taken.
+    /// The warning of the fault that turned the remote off, until it is taken.
     warning: Mutex<Option<String>>,
     lookups: AtomicU64,
     bytes_down: AtomicU64,

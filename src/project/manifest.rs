@@ -67,21 +67,25 @@ fn remote_url<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<String>, 
 }
 
 fn timeout_seconds<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let t = f64::deserialize(d)?;
     // Below a millisecond every request would time out before it was sent.
-    if (0.001..=3600.0).contains(&t) {
-        Ok(t)
-    } else {
-        Err(serde::de::Error::custom("timeout is a number of seconds in [0.001, 3600]"))
-    }
+    seconds(d, "timeout", 0.001..=3600.0)
 }
 
 fn retry_seconds<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    seconds(d, "retry", 0.0..=86_400.0)
+}
+
+/// A number of seconds in `range` (NaN is in none).
+fn seconds<'de, D: serde::Deserializer<'de>>(
+    d: D,
+    name: &str,
+    range: std::ops::RangeInclusive<f64>,
+) -> Result<f64, D::Error> {
     let t = f64::deserialize(d)?;
-    if (0.0..=86_400.0).contains(&t) {
+    if range.contains(&t) {
         Ok(t)
     } else {
-        Err(serde::de::Error::custom("retry is a number of seconds in [0, 86400]"))
+        Err(serde::de::Error::custom(format!("{name} is a number of seconds in [{}, {}]", range.start(), range.end())))
     }
 }
 
