@@ -174,6 +174,12 @@ enum CacheAction {
     /// Print the hit rates of past builds: local hits, remote hits, computed stages, bytes
     /// moved.
     Stats,
+    /// Upload to the remote cache the local entries of the scenes' stages that it lacks
+    /// (stages built before the remote was set, or while it was down).
+    Push {
+        /// Scene files or directories (default: the manifest's scenes directory).
+        paths: Vec<PathBuf>,
+    },
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -231,6 +237,7 @@ fn main() -> ExitCode {
         Command::Graph { scene, dot } => commands::graph(&g, &scene, dot),
         Command::Gc { all } => commands::gc(&g, all),
         Command::Cache { action: CacheAction::Stats } => commands::cache_stats(&g),
+        Command::Cache { action: CacheAction::Push { paths } } => commands::cache_push(&g, &paths),
         Command::Similar { dir, target, k, randomness, seed, fourier, no_colour, orientation, fixed, bins, size } => {
             let fourier = match fourier {
                 FourierArg::Reim => Some(Fourier::ReIm),

@@ -361,3 +361,48 @@ fn watch_asks_a_server_that_came_back() {
     assert!(stats["remote_hits"].as_u64() >= Some(1), "{stats}");
     assert!(server.access_log()[log_before..].contains("GET /cache/ac/"), "asked again");
 }
+
+#[test]
+fn push_fills_a_remote_from_a_local_cache() {
+    let Some((server, _one)) = Nginx::start() else { return };
+    let url = server.url("cache");
+    let scenes = &QUICK[..2];
+    // Built with no remote: the server holds nothing, and the local cache everything.
+    let a = Project::copy_of_repo();
+    tessera(a.dir.path(), &build_args(None, scenes), &[]).ok();
+    assert!(server.stored().is_empty());
+    let push = |p: &Project| {
+        let mut args = vec!["--message-format", "json", "cache", "push", "--remote-cache", &url];
+        args.extend_from_slice(scenes);
+        let run = tessera(p.dir.path(), &args, &[]);
+        run.ok();
+        let line = run.stdout().lines().find(|l| l.contains("\"cache_push\"")).map(str::to_string);
+        serde_json::from_str::<serde_json::Value>(&line.unwrap_or_else(|| panic!("no cache_push:\n{}", run.stdout())))
+            .expect("json")
+    };
+    let first = push(&a);
+    let uploaded = first["uploaded"].as_u64().expect("uploaded");
+    assert!(uploaded > 0 && first["bytes"].as_u64() > Some(0), "{first}");
+    // (A plan may hold stages no output needs: a build leaves them out, and so the cache.)
+    assert_eq!(first["present"].as_u64(), Some(0), "{first}");
+    // Pushing again sends nothing.
+    let again = push(&a);
+    assert_eq!((again["uploaded"].as_u64(), again["present"].as_u64()), (Some(0), Some(uploaded)), "{again}");
+    assert_eq!(again["not_local"], first["not_local"]);
+
+    // A second project, its local cache empty, builds the scenes from the remote alone.
+    let b = Project::copy_of_repo();
+    tessera(b.dir.path(), &build_args(Some(&url), scenes), &[]).ok();
+    let s = statuses(&b);
+    assert_eq!((s.get("ran"), s.get("rebuilt")), (None, None), "{s:?}");
+    assert!(s.get("remote") > Some(&0), "{s:?}");
+    assert_eq!(tree(&b.path("out")), tree(&a.path("out")));
+
+    // Nowhere to push: no remote, or a read-only one.
+    let none = tessera(a.dir.path(), &["cache", "push", "--no-remote-cache"], &[]);
+    none.failed();
+    assert!(none.stderr().contains("no remote cache"), "{}", none.stderr());
+    let ro = tessera(a.dir.path(), &["cache", "push", "--remote-cache", &url, "--remote-read-only", scenes[0]], &[]);
+    ro.failed();
+    assert!(ro.stderr().contains("read-only"), "{}", ro.stderr());
+}

@@ -22,6 +22,7 @@ use std::time::{Duration, Instant};
 use prost::Message;
 use sha2::{Digest as _, Sha256};
 
+use super::cache::{Cache, Lookup};
 use super::key::Key;
 
 /// How to reach a remote cache.
@@ -93,6 +94,20 @@ pub struct Traffic {
     pub bytes_down: u64,
     pub bytes_up: u64,
     pub faults: u64,
+}
+
+/// What [`Remote::push`] did with each key.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Pushed {
+    /// Entries sent, and their bytes on the wire (blobs and action-cache entries).
+    pub uploaded: u64,
+    pub bytes: u64,
+    /// Entries the remote had already.
+    pub present: u64,
+    /// Keys with no entry in the local cache (stages not built, or collected).
+    pub not_local: u64,
+    /// Entries larger than `max_blob`.
+    pub too_large: u64,
 }
 
 pub struct Remote {
@@ -369,6 +384,56 @@ impl Remote {
             drop(c);
         }
         self.uploads.sent.lock().map(|mut s| std::mem::take(&mut *s)).unwrap_or_default()
+    }
+
+    /// Uploads the local entries of `keys` that the remote has no entry for (with their
+    /// warnings), a few at a time so memory holds at most one batch. An error when the
+    /// remote is read-only or fails (what was sent before stays there: entries go up after
+    /// their blobs, so it is never half an entry).
+    pub fn push(self: &Arc<Self>, cache: &Cache, keys: &[Key]) -> Result<Pushed, String> {
+        if self.cfg.read_only {
+            return Err(format!("remote cache {} is read-only here: nothing to push", self.cfg.url));
+        }
+        let mut pushed = Pushed::default();
+        let settle = |pushed: &mut Pushed| {
+            for bytes in self.settle().into_values() {
+                pushed.uploaded += 1;
+                pushed.bytes += bytes;
+            }
+        };
+        let mut batch = 0;
+        for key in keys {
+            let Lookup::Hit(payload) = cache.get(key) else {
+                pushed.not_local += 1;
+                continue;
+            };
+            if self.lookup(key).is_some() {
+                pushed.present += 1;
+                continue;
+            }
+            if payload.len() as u64 > self.cfg.max_blob {
+                pushed.too_large += 1;
+                continue;
+            }
+            if !self.active() {
+                break;
+            }
+            let warnings = match cache.get(&key.warnings()) {
+                Lookup::Hit(w) => Some(w),
+                Lookup::Miss | Lookup::Corrupt => None,
+            };
+            self.upload(*key, payload, warnings);
+            batch += 1;
+            if batch == UPLOAD_THREADS {
+                settle(&mut pushed);
+                batch = 0;
+            }
+        }
+        settle(&mut pushed);
+        match self.take_warning() {
+            Some(w) => Err(w),
+            None => Ok(pushed),
+        }
     }
 
     /// `GET url`: `Ok(None)` on 404, the body (at most `limit` bytes) on 200, a fault

@@ -452,16 +452,31 @@ impl Project {
         Ok(all.iter().map(|n| keys[n]).collect())
     }
 
+    /// The stage keys of every stage of `scenes`.
+    fn scenes_keys(&self, scenes: &[PathBuf]) -> Result<HashSet<Key>, Failed> {
+        let mut keys = HashSet::new();
+        for s in scenes {
+            let (_, plan) = self.compile(s)?;
+            keys.extend(self.keys(&plan)?);
+        }
+        Ok(keys)
+    }
+
     /// Removes cache entries no current scene uses (every entry with `all`).
     pub fn gc(&self, scenes: &[PathBuf], all: bool) -> Result<graph::cache::GcReport, Failed> {
-        let mut keep = HashSet::new();
-        if !all {
-            for s in scenes {
-                let (_, plan) = self.compile(s)?;
-                keep.extend(self.keys(&plan)?);
-            }
-        }
+        let keep = if all { HashSet::new() } else { self.scenes_keys(scenes)? };
         self.cache.gc(&keep).map_err(|e| plain_error(format!("cannot collect the cache: {e}")))
+    }
+
+    /// Uploads to the remote the local cache's entries of `scenes`' stages that it lacks:
+    /// stages built before the remote was set, or while it was off.
+    pub fn push(&self, scenes: &[PathBuf]) -> Result<graph::remote::Pushed, Failed> {
+        let Some(remote) = &self.remote else {
+            return Err(plain_error("no remote cache to push to: set `[cache] remote` or `--remote-cache`".into()));
+        };
+        let mut keys: Vec<Key> = self.scenes_keys(scenes)?.into_iter().collect();
+        keys.sort_by_key(|k| k.0);
+        remote.push(&self.cache, &keys).map_err(plain_error)
     }
 }
 

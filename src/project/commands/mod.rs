@@ -156,6 +156,30 @@ pub fn cache_stats(g: &Global) -> Outcome {
     Ok(())
 }
 
+/// `tessera cache push`: uploads the local entries of the scenes' stages the remote lacks.
+pub fn cache_push(g: &Global, paths: &[PathBuf]) -> Outcome {
+    let p = g.open()?;
+    let scenes = p.scene_files(paths).map_err(|f| print_failed(&f))?;
+    let r = p.push(&scenes).map_err(|f| print_failed(&f))?;
+    if messages::json() {
+        messages::emit(serde_json::json!({
+            "type": "cache_push", "uploaded": r.uploaded, "bytes": r.bytes, "present": r.present,
+            "not_local": r.not_local, "too_large": r.too_large,
+        }));
+    } else if !g.quiet {
+        let url = p.remote.as_ref().map(|r| r.url().to_string()).unwrap_or_default();
+        println!(
+            "push to {url}: {} entries uploaded ({}), {} there already, {} not in the local cache, {} over max_blob",
+            r.uploaded,
+            crate::graph::budget::Bytes(r.bytes as f64),
+            r.present,
+            r.not_local,
+            r.too_large
+        );
+    }
+    Ok(())
+}
+
 /// `tessera similar`: ranks a directory's images against a target through the `library`
 /// kind's cached stages and prints the table (with `--timings`, the stages after it).
 pub fn similar(g: &Global, dir: &Path, target: &Path, options: &SimilarOptions) -> Outcome {
