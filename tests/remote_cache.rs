@@ -405,4 +405,10 @@ fn push_fills_a_remote_from_a_local_cache() {
     let ro = tessera(a.dir.path(), &["cache", "push", "--remote-cache", &url, "--remote-read-only", scenes[0]], &[]);
     ro.failed();
     assert!(ro.stderr().contains("read-only"), "{}", ro.stderr());
+    // A server that fails stops the push with an error saying so.
+    let broken = server.url("broken");
+    let run = tessera(a.dir.path(), &["cache", "push", "--remote-cache", &broken, scenes[0]], &[]);
+    run.failed();
+    let err = common::flat(&run.stderr());
+    assert!(err.contains("HTTP 500") && err.contains("push stopped after 0 entries"), "{err}");
 }

@@ -117,8 +117,8 @@ pub struct Remote {
     off: AtomicBool,
     /// When the remote was turned off.
     off_since: Mutex<Option<Instant>>,
-    /// The warning of the fault that turned the remote off, until it is taken.
-    warning: Mutex<Option<String>>,
+    /// What went wrong in the fault that turned the remote off, until it is taken.
+    fault: Mutex<Option<String>>,
     lookups: AtomicU64,
     bytes_down: AtomicU64,
     bytes_up: AtomicU64,
@@ -157,7 +157,7 @@ impl Remote {
             agent,
             off: AtomicBool::new(false),
             off_since: Mutex::new(None),
-            warning: Mutex::new(None),
+            fault: Mutex::new(None),
             lookups: AtomicU64::new(0),
             bytes_down: AtomicU64::new(0),
             bytes_up: AtomicU64::new(0),
@@ -183,9 +183,18 @@ impl Remote {
         !self.off.load(Ordering::Relaxed)
     }
 
-    /// The warning of the first fault, once.
+    /// The warning of the fault that turned the remote off, once.
     pub fn take_warning(&self) -> Option<String> {
-        self.warning.lock().ok()?.take()
+        let what = self.take_fault()?;
+        let again = match self.cfg.retry {
+            r if r.is_zero() => "in the next build".to_string(),
+            r => format!("in a build {} s from now at the earliest", r.as_secs_f64()),
+        };
+        Some(format!("remote cache {}: {what}; building locally without it, and asking it again {again}", self.cfg.url))
+    }
+
+    fn take_fault(&self) -> Option<String> {
+        self.fault.lock().ok()?.take()
     }
 
     /// What the remote saw so far, counted from the start of the process.
@@ -205,15 +214,8 @@ impl Remote {
             if let Ok(mut since) = self.off_since.lock() {
                 *since = Some(Instant::now());
             }
-            if let Ok(mut w) = self.warning.lock() {
-                let again = match self.cfg.retry {
-                    r if r.is_zero() => "in the next build".to_string(),
-                    r => format!("in a build {} s from now at the earliest", r.as_secs_f64()),
-                };
-                *w = Some(format!(
-                    "remote cache {}: {what}; building locally without it, and asking it again {again}",
-                    self.cfg.url
-                ));
+            if let Ok(mut f) = self.fault.lock() {
+                *f = Some(what);
             }
         }
     }
@@ -430,8 +432,11 @@ impl Remote {
             }
         }
         settle(&mut pushed);
-        match self.take_warning() {
-            Some(w) => Err(w),
+        match self.take_fault() {
+            Some(what) => Err(format!(
+                "remote cache {}: {what}; push stopped after {} entries, each complete on the server",
+                self.cfg.url, pushed.uploaded
+            )),
             None => Ok(pushed),
         }
     }
