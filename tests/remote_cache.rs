@@ -15,7 +15,7 @@ mod common;
 use std::collections::BTreeMap;
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use common::nginx::{Nginx, TOKEN};
@@ -180,15 +180,7 @@ fn a_server_stopped_mid_build_costs_one_warning() {
     let p = Project::copy_of_repo();
     let url = server.url("cache");
     let args = build_args(Some(&url), &QUICK);
-    let child = Command::new(common::bin())
-        .args(&args)
-        .current_dir(p.dir.path())
-        .env("NO_COLOR", "1")
-        .env("NO_PROXY", "127.0.0.1,localhost")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run tessera");
+    let child = common::piped_tessera(p.dir.path(), &args).spawn().expect("run tessera");
     // Stop the server once the first upload has reached it.
     let start = Instant::now();
     while !server.access_log().contains("PUT") {
@@ -315,19 +307,7 @@ fn watch_asks_a_server_that_came_back() {
     let p = Project::new(&[("scene.tess", &scene("0.25"))]);
     p.write("tessera.toml", &manifest("retry = 0\ntimeout = 5\n"));
     let (mut child, lines) = common::spawn_watch(&p, "scene.tess");
-    let until = |needle: &str| -> Vec<String> {
-        let deadline = Instant::now() + Duration::from_secs(30);
-        let mut seen = Vec::new();
-        while let Some(left) = deadline.checked_duration_since(Instant::now()) {
-            let Ok(l) = lines.recv_timeout(left) else { break };
-            let hit = l.contains(needle);
-            seen.push(l);
-            if hit {
-                return seen;
-            }
-        }
-        panic!("no line with {needle:?} within 30 s:\n{}", seen.join("\n"))
-    };
+    let until = |needle: &str| common::lines_until(&lines, needle, Duration::from_secs(30));
     let first_build = until("[watch] built");
     let warned = |seen: &[String]| seen.iter().filter(|l| l.starts_with("warning: remote cache")).count();
     assert!(first_build.iter().any(|l| l.contains("ran 2 stage(s)")), "{first_build:?}");

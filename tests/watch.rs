@@ -32,21 +32,7 @@ impl Watch {
 
     /// Lines up to and including the first that contains `needle`.
     fn until(&self, needle: &str) -> Vec<String> {
-        let deadline = Instant::now() + Duration::from_secs(20);
-        let mut seen = Vec::new();
-        while let Some(left) = deadline.checked_duration_since(Instant::now()) {
-            match self.lines.recv_timeout(left) {
-                Ok(l) => {
-                    let hit = l.contains(needle);
-                    seen.push(l);
-                    if hit {
-                        return seen;
-                    }
-                }
-                Err(_) => break,
-            }
-        }
-        panic!("no line containing {needle:?} within 20 s; saw:\n{}", seen.join("\n"));
+        common::lines_until(&self.lines, needle, Duration::from_secs(20))
     }
 }
 

@@ -81,7 +81,7 @@ impl Report {
             needed: count(|s| s != Status::Fresh),
             local_hits: count(|s| matches!(s, Status::Hit | Status::Memory)),
             remote_hits: count(|s| s == Status::Remote),
-            computed: count(|s| matches!(s, Status::Ran | Status::Rebuilt)),
+            computed: self.ran().count() as u64,
             remote_lookups: traffic.lookups,
             bytes_down: traffic.bytes_down,
             bytes_up: traffic.bytes_up,

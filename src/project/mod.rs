@@ -475,7 +475,7 @@ impl Project {
             return Err(plain_error("no remote cache to push to: set `[cache] remote` or `--remote-cache`".into()));
         };
         let mut keys: Vec<Key> = self.scenes_keys(scenes)?.into_iter().collect();
-        keys.sort_by_key(|k| k.0);
+        keys.sort();
         remote.push(&self.cache, &keys).map_err(plain_error)
     }
 }

@@ -246,18 +246,23 @@ pub fn spawn_watch(p: &Project, scene: &str) -> (std::process::Child, std::sync:
     spawn_tessera(p, &["watch", scene])
 }
 
-/// Starts `tessera ARGS` in `p` and a reader of its stdout and stderr lines, interleaved.
-pub fn spawn_tessera(p: &Project, args: &[&str]) -> (std::process::Child, std::sync::mpsc::Receiver<String>) {
-    use std::io::{BufRead, BufReader};
-    let mut child = Command::new(bin())
-        .args(args)
-        .current_dir(p.dir.path())
+/// `tessera ARGS` in `dir`, uncoloured, loopback servers reached directly, its stdout and
+/// stderr piped: to spawn.
+pub fn piped_tessera(dir: &Path, args: &[&str]) -> Command {
+    let mut c = Command::new(bin());
+    c.args(args)
+        .current_dir(dir)
         .env("NO_COLOR", "1")
         .env("NO_PROXY", "127.0.0.1,localhost")
         .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn watch");
+        .stderr(Stdio::piped());
+    c
+}
+
+/// Starts `tessera ARGS` in `p` and a reader of its stdout and stderr lines, interleaved.
+pub fn spawn_tessera(p: &Project, args: &[&str]) -> (std::process::Child, std::sync::mpsc::Receiver<String>) {
+    use std::io::{BufRead, BufReader};
+    let mut child = piped_tessera(p.dir.path(), args).spawn().expect("spawn tessera");
     let (tx, rx) = std::sync::mpsc::channel();
     let out = child.stdout.take().expect("stdout");
     let err = child.stderr.take().expect("stderr");
@@ -265,6 +270,22 @@ pub fn spawn_tessera(p: &Project, args: &[&str]) -> (std::process::Child, std::s
     std::thread::spawn(move || BufReader::new(out).lines().map_while(Result::ok).for_each(|l| drop(tx.send(l))));
     std::thread::spawn(move || BufReader::new(err).lines().map_while(Result::ok).for_each(|l| drop(tx2.send(l))));
     (child, rx)
+}
+
+/// Lines from `lines` up to and including the first that contains `needle`; a panic showing
+/// what came when none does `within`.
+pub fn lines_until(lines: &std::sync::mpsc::Receiver<String>, needle: &str, within: Duration) -> Vec<String> {
+    let deadline = Instant::now() + within;
+    let mut seen = Vec::new();
+    while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+        let Ok(l) = lines.recv_timeout(left) else { break };
+        let hit = l.contains(needle);
+        seen.push(l);
+        if hit {
+            return seen;
+        }
+    }
+    panic!("no line containing {needle:?} within {within:?}; saw:\n{}", seen.join("\n"))
 }
 
 /// A small seeded RGB texture with enough structure to quilt and to rank.
